@@ -1,0 +1,58 @@
+"""Input validation shared by the public API: clear errors that name the value and its origin."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+
+def _first_bad(values: NDArray, bad: NDArray) -> str:
+    index = tuple(int(i) for i in np.argwhere(bad)[0])
+    where = f" at index {index}" if values.ndim else ""
+    return f"{values[index] if values.ndim else values!r}{where}"
+
+
+def real_array(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    """Convert ``value`` to a float64 array, rejecting non-numeric dtypes with a TypeError."""
+    arr = np.asarray(value)
+    if arr.dtype == object or not (
+        np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)
+    ):
+        raise TypeError(f"{name} must be a real number array; got dtype {arr.dtype}")
+    if arr.dtype == np.bool_:
+        raise TypeError(f"{name} must be a real number array; got dtype bool")
+    return arr.astype(np.float64, copy=False)
+
+
+def finite(arr: NDArray, name: str) -> NDArray:
+    """Reject NaN and infinity, naming the first offending value and its index."""
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        raise ValueError(f"{name} must be finite; got {_first_bad(arr, bad)}")
+    return arr
+
+
+def positive_temperature(value: ArrayLike, name: str = "temperature_K") -> NDArray[np.float64]:
+    """Validate temperatures in kelvin: real, finite and strictly positive."""
+    arr = finite(real_array(value, name), name)
+    bad = arr <= 0
+    if bad.any():
+        raise ValueError(f"{name} must be > 0 K; got {_first_bad(arr, bad)} K")
+    return arr
+
+
+def positive_scalar(value: float, name: str) -> float:
+    """Validate a strictly positive finite scalar."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number; got {type(value).__name__} {value!r}")
+    v = float(value)
+    if not np.isfinite(v) or v <= 0:
+        raise ValueError(f"{name} must be a finite number > 0; got {value!r}")
+    return v
+
+
+def choice(value: str, name: str, valid: tuple[str, ...] | list[str]) -> str:
+    """Validate that ``value`` is one of ``valid``, listing the choices otherwise."""
+    if value not in valid:
+        raise ValueError(f"unknown {name} {value!r}; expected one of: {', '.join(valid)}")
+    return value

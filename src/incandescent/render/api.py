@@ -1,0 +1,90 @@
+"""``render()``: volume + camera + settings → HDRImage. Pure: no file I/O, no global state."""
+
+from __future__ import annotations
+
+import functools
+import platform
+
+import numpy as np
+
+from incandescent import __version__
+from incandescent.camera import Camera, default_camera
+from incandescent.render.backends import MarchInputs, resolve_backend, run_march
+from incandescent.render.film import HDRImage, resolve_pixels
+from incandescent.render.rays import prepare_rays
+from incandescent.render.settings import RenderSettings
+from incandescent.spectra.lut import EmissionLUT, build_emission_lut
+from incandescent.volume import Volume, build_macrocells
+
+
+@functools.lru_cache(maxsize=16)
+def _cached_lut(t_max_K: float, observer: str, constants: str) -> EmissionLUT:
+    from incandescent.spectra.blackbody import blackbody_xyz
+
+    return build_emission_lut(t_max_K, lambda t: blackbody_xyz(t, observer, constants))
+
+
+def emission_lut(volume: Volume, settings: RenderSettings) -> EmissionLUT:
+    """The T ↦ XYZ table for this volume's temperature range (cached by range and physics)."""
+    t_max = max(1e5, float(np.nextafter(np.float32(volume.max_temperature_K), np.inf)) * 1.001)
+    return _cached_lut(round(t_max, -2) if t_max > 1e5 else 1e5, settings.observer,
+                       settings.constants)
+
+
+def render(
+    volume: Volume,
+    camera: Camera | None = None,
+    settings: RenderSettings | None = None,
+    backend: str | None = "auto",
+) -> HDRImage:
+    """Render ``volume`` seen by ``camera`` (default: a three-quarter view framing the volume).
+
+    Returns absolute XYZ (Y in cd/m²) with metadata: backend, device, samples, seconds, settings.
+    """
+    if not isinstance(volume, Volume):
+        raise TypeError(f"volume must be an incandescent.Volume; got {type(volume).__name__}")
+    settings = settings or RenderSettings()
+    camera = camera or default_camera(volume.bounds_m)
+    name = resolve_backend(backend)
+    inputs = _march_inputs(volume, camera, settings, name)
+    result = run_march(inputs, name)
+    return _assemble(inputs, result, name, camera)
+
+
+def _march_inputs(volume, camera, settings, backend: str) -> MarchInputs:
+    cells = None
+    if settings.skip_empty and backend != "reference":
+        cells = build_macrocells(volume.absorption_per_m, settings.macrocell_voxels)
+    rays = prepare_rays(camera, volume, settings)
+    return MarchInputs(rays, volume, emission_lut(volume, settings), cells, settings)
+
+
+def _scatter_rays(values: np.ndarray, inputs: MarchInputs, fill: float) -> np.ndarray:
+    tail = values.shape[1:]
+    full = np.full((inputs.rays.n_total,) + tail, fill, dtype=np.float64)
+    full[inputs.rays.ray_index] = values
+    s = inputs.settings
+    return resolve_pixels(full, s.width, s.height, s.supersample)
+
+
+def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRImage:
+    xyz = _scatter_rays(result.xyz, inputs, 0.0).astype(np.float32)
+    tr = _scatter_rays(result.transmittance, inputs, 1.0).astype(np.float32)
+    s = inputs.settings
+    metadata = {
+        "backend": backend,
+        "device": result.device,
+        "samples": result.samples,
+        "seconds": result.seconds,
+        "absorption": inputs.volume.absorption_source,
+        "brightness": s.brightness,
+        "observer": s.observer,
+        "planck_constants": s.constants,
+        "step_voxels": s.step_voxels,
+        "supersample": s.supersample,
+        "seed": s.seed,
+        "camera": repr(camera),
+        "incandescent_version": __version__,
+        "python": platform.python_version(),
+    }
+    return HDRImage(xyz, tr, s.space, metadata)

@@ -1,0 +1,205 @@
+"""The Dr.Jit megakernel: one source for the CPU (LLVM) and CUDA backends.
+
+The whole march is one symbolic ``dr.while_loop`` with one ray per lane (DESIGN.md §6). Each
+iteration handles one segment of the step lattice (see ``common``): either
+
+* the segment's midpoint lies in an *empty* macrocell → jump, with one 3-D DDA step, to the first
+  segment that reaches the cell's exit (no sample is taken; the image is unchanged because an empty
+  cell, border included, guarantees κ = 0 at every sample in it); or
+* sample κ trilinearly, and only where κ > 0 (``dr.if_stmt``: the CPU backend branches around the
+  block when no lane of a packet needs it) sample T, look up XYZ(B(T)) in the 1/T table and
+  integrate the segment exactly.
+
+Outputs are the loop's own state variables (XYZ, transmittance, sample count): no scatters.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from incandescent.render.backends.common import THIN_STEP, MarchInputs, MarchResult
+from incandescent.render.backends.jit import array_module, device_name, drjit_module
+
+
+class _Kernel:
+    """Traced helpers bound to one Dr.Jit array module (``drjit.llvm`` or ``drjit.cuda``)."""
+
+    def __init__(self, m, inputs: MarchInputs) -> None:
+        self.dr, self.m = drjit_module(), m
+        vol, lut, s = inputs.volume, inputs.lut, inputs.settings
+        self.shape = vol.shape
+        self.kappa = m.Float(vol.absorption_per_m.ravel())
+        self.temp = m.Float(vol.temperature_K.ravel())
+        scale = vol.emission_scale
+        self.scale = None if scale is None else m.Float(scale.ravel())
+        self.lut = m.Float(lut.values.astype(np.float32).ravel())
+        self.lut_size, self.lut_t_min = lut.size, np.float32(lut.t_min_K)
+        self.lut_w_min, self.lut_inv_dw = np.float32(lut.w_min), np.float32(lut.inv_dw)
+        self.ds_per_voxel = np.float32(vol.voxel_size_m)
+        self.dt = np.float32(s.step_voxels)
+        self.min_tr = np.float32(s.min_transmittance)
+        cells = inputs.macrocells
+        self.cells = None if cells is None else m.Float(cells.max_absorption.ravel())
+        self.cell_shape = None if cells is None else cells.shape
+        self.cell_voxels = None if cells is None else np.float32(cells.cell_voxels)
+
+    # --- sampling -------------------------------------------------------------------------
+    def axis(self, p, n: int):
+        """Trilinear indices (i0, i1) and weight along one axis; edge voxels clamp (DESIGN §4)."""
+        dr, m = self.dr, self.m
+        u = dr.clip(p - 0.5, 0.0, float(n - 1))
+        i0 = dr.minimum(m.UInt(u), max(n - 2, 0))
+        return i0, dr.minimum(i0 + 1, n - 1), u - m.Float(i0)
+
+    def corners(self, p):
+        """Per-axis flat-index offsets and weights of the 8 trilinear neighbours of p."""
+        nx, ny, nz = self.shape
+        (x0, x1, fx), (y0, y1, fy), (z0, z1, fz) = (
+            self.axis(p[a], n) for a, n in enumerate(self.shape)
+        )
+        return (x0 * (ny * nz), x1 * (ny * nz), fx), (y0 * nz, y1 * nz, fy), (z0, z1, fz)
+
+    def trilinear(self, grid, c):
+        dr, Float = self.dr, self.m.Float
+        (x0, x1, fx), (y0, y1, fy), (z0, z1, fz) = c
+
+        def lerp_x(y, z):
+            a = dr.gather(Float, grid, x0 + y + z)
+            return dr.fma(dr.gather(Float, grid, x1 + y + z) - a, fx, a)
+
+        c0 = dr.lerp(lerp_x(y0, z0), lerp_x(y1, z0), fy)
+        c1 = dr.lerp(lerp_x(y0, z1), lerp_x(y1, z1), fy)
+        return dr.lerp(c0, c1, fz)
+
+    def emission(self, temp):
+        """XYZ per unit absorption from the 1/T table, linear interpolation; 0 below T_min."""
+        dr, m = self.dr, self.m
+        f = (dr.rcp(dr.maximum(temp, 1e-30)) - self.lut_w_min) * self.lut_inv_dw
+        f = dr.clip(f, 0.0, float(self.lut_size - 1))
+        i0 = dr.minimum(m.UInt(f), self.lut_size - 2)
+        lo = dr.gather(m.Array3f, self.lut, i0)
+        hi = dr.gather(m.Array3f, self.lut, i0 + 1)
+        xyz = dr.lerp(lo, hi, f - m.Float(i0))
+        return dr.select(temp >= self.lut_t_min, xyz, 0.0)
+
+    # --- one segment ----------------------------------------------------------------------
+    def integrate(self, tr, L, kappa, c, ds_m):
+        """Exact emission–absorption over one segment (Kirchhoff, DESIGN.md §3)."""
+        dr = self.dr
+        xyz = self.emission(self.trilinear(self.temp, c))
+        if self.scale is not None:
+            xyz = xyz * self.trilinear(self.scale, c)
+        x = kappa * ds_m
+        e = dr.exp(-x)
+        alpha = dr.select(x < THIN_STEP, x * (1.0 - x * (0.5 - x * (1.0 / 6.0))), 1.0 - e)
+        return tr * e, dr.fma(xyz, tr * alpha, L)
+
+    def sample(self, k, tr, L, n, p, ds_m):
+        dr = self.dr
+        c = self.corners(p)
+        kappa = self.trilinear(self.kappa, c)
+        tr, L = dr.if_stmt(
+            (tr, L, kappa, c, ds_m),
+            kappa > 0.0,
+            self.integrate,
+            lambda tr, L, kappa, c, ds_m: (tr, L),
+        )
+        return k + 1.0, tr, L, n + 1
+
+    # --- empty space --------------------------------------------------------------------------
+    def cell_index(self, p):
+        dr, m = self.dr, self.m
+        cx, cy, cz = (
+            dr.minimum(m.UInt(dr.maximum(p[a] / self.cell_voxels, 0.0)), self.cell_shape[a] - 1)
+            for a in range(3)
+        )
+        return cx, cy, cz
+
+    def is_empty(self, p):
+        cx, cy, cz = self.cell_index(p)
+        _, ny, nz = self.cell_shape
+        flat = (cx * ny + cy) * nz + cz
+        return self.dr.gather(self.m.Float, self.cells, flat) == 0.0
+
+    def skip(self, k, p, ray):
+        """k of the first segment reaching the exit of p's (empty) macrocell: one DDA step."""
+        dr, m = self.dr, self.m
+        o, d, t0, j = ray
+        cell = self.cell_index(p)
+        t_exit = m.Float(np.inf)
+        for a in range(3):
+            bound = (m.Float(cell[a]) + dr.select(d[a] > 0, 1.0, 0.0)) * self.cell_voxels
+            t_axis = (bound - o[a]) / d[a]
+            t_exit = dr.minimum(t_exit, dr.select(d[a] == 0.0, np.inf, t_axis))
+        k_exit = dr.floor((t_exit - t0) / self.dt - j) + 1.0
+        return dr.maximum(k_exit, k + 1.0)
+
+
+def _ray_arrays(m, rays):
+    f32 = np.float32
+    o = m.Array3f(*(m.Float(rays.origin[:, a].astype(f32)) for a in range(3)))
+    d = m.Array3f(*(m.Float(rays.direction[:, a].astype(f32)) for a in range(3)))
+    return o, d, m.Float(rays.t_enter.astype(f32)), m.Float(rays.t_exit.astype(f32)), m.Float(
+        rays.jitter.astype(f32)
+    )
+
+
+def trace(inputs: MarchInputs, m):
+    """Trace the megakernel for all rays; returns lazy (XYZ, transmittance, samples) arrays."""
+    dr, K = drjit_module(), _Kernel(m, inputs)
+    o, d, t0, t1, j = _ray_arrays(m, inputs.rays)
+    dt, skipping = K.dt, K.cells is not None
+
+    def segment(k):
+        a = dr.maximum(dr.fma(k - 1.0 + j, dt, t0), t0)
+        b = dr.minimum(dr.fma(k + j, dt, t0), t1)
+        return a, b
+
+    def cond(k, tr, L, n):
+        a, _ = segment(k)
+        return (a < t1) & (tr >= K.min_tr)
+
+    def body(k, tr, L, n):
+        a, b = segment(k)
+        p = dr.fma(d, 0.5 * (a + b), o)
+        ds_m = (b - a) * K.ds_per_voxel
+        if not skipping:
+            return K.sample(k, tr, L, n, p, ds_m)
+        return dr.if_stmt(
+            (k, tr, L, n, p, ds_m),
+            K.is_empty(p),
+            lambda k, tr, L, n, p, ds_m: (K.skip(k, p, (o, d, t0, j)), tr, L, n),
+            K.sample,
+        )
+
+    state = (m.Float(0.0), m.Float(1.0), m.Array3f(0.0), m.UInt(0))
+    _, tr, L, n = dr.while_loop(state, cond, body, labels=("k", "tr", "L", "n"))
+    return L, tr, n
+
+
+def march(inputs: MarchInputs, kind: str) -> MarchResult:
+    """Run the megakernel on backend ``kind`` ("cpu" or "cuda")."""
+    m = array_module(kind)
+    dr = drjit_module()
+    if inputs.rays.size == 0:
+        return MarchResult(np.zeros((0, 3)), np.ones(0), 0, 0.0, device_name(kind))
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        dr.kernel_history()  # clear
+        start = time.perf_counter()
+        L, tr, n = trace(inputs, m)
+        dr.eval(L, tr, n)
+        dr.sync_thread()
+        wall = time.perf_counter() - start
+        compile_s = sum(_compile_seconds(h) for h in dr.kernel_history())
+    xyz = np.stack([np.asarray(L[a], dtype=np.float64) for a in range(3)], axis=1)
+    samples = int(np.asarray(n, dtype=np.uint64).sum())
+    return MarchResult(xyz, np.asarray(tr, dtype=np.float64), samples, max(wall - compile_s, 0.0),
+                       device_name(kind))
+
+
+def _compile_seconds(entry: dict) -> float:
+    """Code generation and backend compilation time of one kernel-history entry, in s."""
+    ms = float(entry.get("codegen_time", 0.0)) + float(entry.get("backend_time", 0.0))
+    return ms / 1000.0

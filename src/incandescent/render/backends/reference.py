@@ -1,0 +1,61 @@
+"""The reference backend: a readable float64 NumPy marcher, the ground truth for the others.
+
+All rays advance in lockstep, one segment per iteration (see ``common`` for the step lattice).
+Emission is evaluated *exactly* — the Planck × CMF integral at each sample's temperature — not from
+the table the fast backends use, so parity tests also check the table. No empty-space skipping.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from incandescent.render.backends.common import MarchInputs, MarchResult, trilinear
+from incandescent.spectra.blackbody import blackbody_xyz
+
+
+def _emission_xyz(temp_K: np.ndarray, inputs: MarchInputs) -> np.ndarray:
+    """XYZ per unit absorption, exact; zero below the table's T_min as in the fast backends."""
+    s = inputs.settings
+    hot = temp_K >= inputs.lut.t_min_K
+    out = np.zeros(temp_K.shape + (3,))
+    if hot.any():
+        out[hot] = blackbody_xyz(temp_K[hot], s.observer, s.constants)
+    return out
+
+
+def march(inputs: MarchInputs) -> MarchResult:
+    """March every ray of ``inputs.rays`` front to back; float64 throughout."""
+    start = time.perf_counter()
+    rays, vol, s = inputs.rays, inputs.volume, inputs.settings
+    n = rays.size
+    xyz = np.zeros((n, 3))
+    transmittance = np.ones(n)
+    k = np.zeros(n)
+    samples = 0
+    active = np.arange(n)
+    while active.size:
+        r = active
+        a = np.maximum(rays.t_enter[r] + (k[r] - 1 + rays.jitter[r]) * s.step_voxels, rays.t_enter[r])
+        b = np.minimum(rays.t_enter[r] + (k[r] + rays.jitter[r]) * s.step_voxels, rays.t_exit[r])
+        p = rays.origin[r] + rays.direction[r] * (0.5 * (a + b))[:, None]
+        samples += r.size
+        _integrate_step(inputs, r, p, (b - a) * vol.voxel_size_m, xyz, transmittance)
+        k[r] += 1
+        more = (b < rays.t_exit[r]) & (transmittance[r] >= s.min_transmittance)
+        active = r[more]
+    return MarchResult(xyz, transmittance, samples, time.perf_counter() - start, "numpy float64")
+
+
+def _integrate_step(inputs, r, p, ds_m, xyz, transmittance) -> None:
+    """Exact emission–absorption over one segment of length ``ds_m`` (m) for rays ``r``, in place."""
+    vol = inputs.volume
+    kappa = trilinear(vol.absorption_per_m, p)
+    temp = trilinear(vol.temperature_K, p)
+    scale = 1.0 if vol.emission_scale is None else trilinear(vol.emission_scale, p)
+    optical_depth = kappa * ds_m
+    alpha = -np.expm1(-optical_depth)
+    emitted = (transmittance[r] * alpha * scale)[:, None] * _emission_xyz(temp, inputs)
+    xyz[r] += emitted
+    transmittance[r] *= np.exp(-optical_depth)

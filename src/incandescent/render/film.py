@@ -1,0 +1,58 @@
+"""HDRImage: the renderer's output — scene-referred absolute XYZ plus metadata, no file I/O."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+@dataclass(frozen=True, eq=False)
+class HDRImage:
+    """A rendered image.
+
+    Attributes
+    ----------
+    xyz: (H, W, 3) float32 absolute CIE XYZ; Y is luminance in cd/m².
+    transmittance: (H, W) float32 transmittance along each pixel's rays (1 = nothing in front).
+    space: name of the RGB space :meth:`rgb` converts to by default.
+    metadata: what made the image (backend, device, settings, samples, seconds, versions...).
+    """
+
+    xyz: NDArray[np.float32]
+    transmittance: NDArray[np.float32]
+    space: str = "srgb"
+    metadata: dict = field(default_factory=dict)
+
+    @property
+    def height(self) -> int:
+        return int(self.xyz.shape[0])
+
+    @property
+    def width(self) -> int:
+        return int(self.xyz.shape[1])
+
+    @property
+    def luminance(self) -> NDArray[np.float32]:
+        """Y in cd/m², (H, W)."""
+        return self.xyz[..., 1]
+
+    @property
+    def alpha(self) -> NDArray[np.float32]:
+        """Coverage 1 − transmittance, (H, W)."""
+        return 1.0 - self.transmittance
+
+    def rgb(self, space: str | None = None) -> NDArray[np.float32]:
+        """Linear RGB (H, W, 3) in ``space`` (default: the image's), unclipped."""
+        from incandescent.colorimetry import xyz_to_rgb
+
+        return xyz_to_rgb(self.xyz, space or self.space).astype(np.float32)
+
+
+def resolve_pixels(values: NDArray, width: int, height: int, supersample: int) -> NDArray:
+    """Average the s² sub-pixel values of column-major ray data (n, ...) into an (H, W, ...) image."""
+    s2 = supersample * supersample
+    tail = values.shape[1:]
+    per_pixel = values.reshape((width, height, s2) + tail).mean(axis=2)
+    return np.swapaxes(per_pixel, 0, 1)

@@ -1,0 +1,83 @@
+"""Host-side ray setup shared by every backend: camera rays in voxel space, clipped to the grid box,
+with their jitter. Rays that miss the box are dropped before any kernel runs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from incandescent.camera import Camera
+from incandescent.render.settings import RenderSettings
+from incandescent.volume import Volume
+
+
+@dataclass(frozen=True)
+class RayBatch:
+    """Rays that hit the grid box, in voxel units (1 = one voxel side).
+
+    Attributes
+    ----------
+    origin: (n, 3) float64 ray origins in voxel coordinates (grid box is [0, shape]).
+    direction: (n, 3) float64 unit directions (world and voxel space share directions).
+    t_enter, t_exit: (n,) entry and exit distances along the ray, in voxels.
+    jitter: (n,) offset in [0, 1) of the step lattice, in steps.
+    ray_index: (n,) index of each ray among all ``n_total`` camera rays.
+    """
+
+    origin: NDArray[np.float64]
+    direction: NDArray[np.float64]
+    t_enter: NDArray[np.float64]
+    t_exit: NDArray[np.float64]
+    jitter: NDArray[np.float64]
+    ray_index: NDArray[np.int64]
+    n_total: int
+
+    @property
+    def size(self) -> int:
+        return int(self.t_enter.size)
+
+
+def clip_to_box(origin: NDArray, direction: NDArray, upper: NDArray) -> tuple[NDArray, NDArray]:
+    """Slab-method intersection of rays with the box [0, upper]; returns (t_enter ≥ 0, t_exit)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / direction
+        t_a = (0.0 - origin) * inv
+        t_b = (upper - origin) * inv
+    parallel = direction == 0
+    inside = (origin >= 0) & (origin <= upper)
+    t_lo = np.where(parallel, np.where(inside, -np.inf, np.inf), np.minimum(t_a, t_b))
+    t_hi = np.where(parallel, np.where(inside, np.inf, -np.inf), np.maximum(t_a, t_b))
+    return np.maximum(t_lo.max(axis=1), 0.0), t_hi.min(axis=1)
+
+
+def lowbias32(x: NDArray) -> NDArray[np.uint32]:
+    """Integer hash (C. Wellons, "lowbias32", 2018) on uint32 arrays."""
+    x = np.array(x, dtype=np.uint32, ndmin=1)
+    x = x ^ (x >> np.uint32(16))
+    x = x * np.uint32(0x7FEB352D)
+    x = x ^ (x >> np.uint32(15))
+    x = x * np.uint32(0x846CA68B)
+    return x ^ (x >> np.uint32(16))
+
+
+def jitter(ray_index: NDArray, seed: int) -> NDArray[np.float64]:
+    """Per-ray offset in [0, 1), reproducible from (ray index, seed); exact in float32."""
+    key = lowbias32((seed + 0x9E3779B9) & 0xFFFFFFFF)[0]
+    h = lowbias32(np.asarray(ray_index, dtype=np.uint32) ^ key)
+    return (h >> np.uint32(8)).astype(np.float64) * 2.0**-24
+
+
+def prepare_rays(camera: Camera, volume: Volume, settings: RenderSettings) -> RayBatch:
+    """Generate, transform and clip all camera rays; keep those with a non-empty box interval."""
+    s = settings
+    origin_w, direction = camera.generate_rays(s.width, s.height, s.supersample)
+    origin = (origin_w - np.asarray(volume.origin_m)) / volume.voxel_size_m
+    t_enter, t_exit = clip_to_box(origin, direction, np.asarray(volume.shape, dtype=np.float64))
+    hit = np.flatnonzero(t_exit > t_enter)
+    offsets = jitter(hit, s.seed) if s.jitter else np.full(hit.size, 0.5)
+    return RayBatch(
+        origin[hit], direction[hit], t_enter[hit], t_exit[hit], offsets, hit, origin.shape[0]
+    )

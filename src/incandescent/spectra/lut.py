@@ -1,0 +1,91 @@
+"""Tabulated T ↦ XYZ emission per unit absorption, the table the renderer samples.
+
+For grey absorption κ the wavelength integral commutes with transport (Kirchhoff: emission is
+κ·B_λ(T)), so a 1-D table of XYZ(B(T)) is exact up to its interpolation error.
+
+Sampling. The table is uniform in *inverse* temperature w = 1/T. Blackbody XYZ behaves like
+exp(−a·w) at low T (Wien, a = c2/λ ≤ 3.8e4 K) and like 1/w at high T (Rayleigh–Jeans), and linear
+interpolation in w is accurate at both ends: the relative error is about (a·Δw)²/8 at low T and
+(Δw·T)²/4 at high T. The spacing is set so that (Δw·T_max)²/4 ≤ 1e-4, i.e. Δw ≤ 0.015 / T_max (a margin over 0.02),
+which gives about 1e-4 at most on [T_min, T_max] (measured in ``tests/test_lut.py``).
+Below T_min the renderer emits nothing (at 250 K the visible luminance is ~1e-37 cd/m²); above
+T_max the table is extended when built for a volume (:func:`build_emission_lut` ``t_max_K``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from incandescent import _validate
+from incandescent.spectra.blackbody import blackbody_xyz
+
+T_MIN_K = 250.0
+T_MAX_K = 100_000.0
+MIN_ENTRIES = 4096
+
+
+@dataclass(frozen=True)
+class EmissionLUT:
+    """XYZ emission per unit absorption, tabulated uniformly in w = 1/T.
+
+    Attributes
+    ----------
+    t_min_K, t_max_K: table range in K; entry 0 is at T_max, entry N−1 at T_min.
+    values: (N, 3) float64, XYZ of B(T) (Y in cd/m²) at w_i = 1/T_max + i·Δw.
+    """
+
+    t_min_K: float
+    t_max_K: float
+    values: NDArray[np.float64]
+
+    @property
+    def size(self) -> int:
+        return int(self.values.shape[0])
+
+    @property
+    def w_min(self) -> float:
+        """Smallest tabulated inverse temperature 1/T_max in 1/K."""
+        return 1.0 / self.t_max_K
+
+    @property
+    def inv_dw(self) -> float:
+        """Entries per unit of inverse temperature (1/Δw), in K."""
+        return (self.size - 1) / (1.0 / self.t_min_K - self.w_min)
+
+    def lookup(self, temperature_K: ArrayLike) -> NDArray[np.float64]:
+        """Linear interpolation in 1/T, exactly as the kernels do; 0 below T_min; clamped above."""
+        temp = np.asarray(temperature_K, dtype=np.float64)
+        f = (1.0 / np.maximum(temp, 1e-30) - self.w_min) * self.inv_dw
+        f = np.clip(f, 0.0, self.size - 1)
+        i0 = np.minimum(np.floor(f).astype(np.int64), self.size - 2)
+        frac = (f - i0)[..., None]
+        out = self.values[i0] * (1.0 - frac) + self.values[i0 + 1] * frac
+        return np.where((temp >= self.t_min_K)[..., None], out, 0.0)
+
+
+def table_size(t_max_K: float) -> int:
+    """Entries needed for ≤ 1e-4 relative interpolation error up to ``t_max_K`` (see module doc)."""
+    return max(MIN_ENTRIES, int(np.ceil(t_max_K / (0.015 * T_MIN_K))) + 1)
+
+
+def build_emission_lut(
+    t_max_K: float = T_MAX_K,
+    xyz_of_temperature: Callable[[NDArray], NDArray] | None = None,
+    t_min_K: float = T_MIN_K,
+) -> EmissionLUT:
+    """Tabulate ``xyz_of_temperature`` (default :func:`blackbody_xyz`) over [t_min_K, t_max_K].
+
+    ``t_max_K`` is raised to at least 100 000 K; pass a volume's hottest temperature to extend it.
+    """
+    t_max = max(_validate.positive_scalar(t_max_K, "t_max_K"), T_MAX_K)
+    t_min = _validate.positive_scalar(t_min_K, "t_min_K")
+    n = table_size(t_max)
+    w = np.linspace(1.0 / t_max, 1.0 / t_min, n)
+    fn = xyz_of_temperature or blackbody_xyz
+    values = np.asarray(fn(1.0 / w), dtype=np.float64)
+    values.setflags(write=False)
+    return EmissionLUT(t_min, t_max, values)

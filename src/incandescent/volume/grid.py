@@ -1,0 +1,190 @@
+"""The Volume: temperature (K), absorption (1/m) and emission-scale grids placed in the world.
+
+Conventions (DESIGN.md §4): ``a[i, j, k]`` is the voxel at x=i, y=j, z=k; ``origin_m`` is the world
+position of the corner of voxel (0, 0, 0); voxels are cubes of side ``voxel_size_m``. By default the
+grid is centred at the world origin with its largest side 1 m long.
+
+Absorption. When no absorption is given, the *default absorption* applies: κ = 1/L (optical depth 1
+across the box's largest side L) in voxels at or above 500 K and 0 in colder voxels, so the glowing
+gas absorbs and the cold surroundings are vacuum. Temperature remapping (for fields that are not in
+kelvin) is ``T = (raw − offset) · scale``; voxels with T below ``cutoff_K`` are vacuum: they neither
+emit nor absorb.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from incandescent import _validate
+
+#: Voxels at or above this temperature absorb under the default absorption, K.
+DEFAULT_ABSORPTION_MIN_K = 500.0
+#: Default optical depth across the largest side of the box.
+DEFAULT_OPTICAL_DEPTH = 1.0
+
+
+@dataclass(frozen=True)
+class Remap:
+    """Map a raw field to kelvin: ``T = (raw − offset) · scale``; ``T < cutoff_K`` becomes vacuum."""
+
+    offset: float = 0.0
+    scale: float = 1.0
+    cutoff_K: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("offset", "scale", "cutoff_K"):
+            value = float(getattr(self, name))
+            if not np.isfinite(value):
+                raise ValueError(f"remap {name} must be finite; got {value!r}")
+        if self.scale <= 0:
+            raise ValueError(f"remap scale must be > 0; got {self.scale!r}")
+
+    def apply(self, raw: NDArray) -> NDArray[np.float64]:
+        return (raw - self.offset) * self.scale
+
+
+@dataclass(frozen=True, eq=False)
+class Volume:
+    """Validated, placed grids ready to render. Build with :meth:`Volume.from_arrays`.
+
+    Attributes
+    ----------
+    temperature_K: (nx, ny, nz) float32, kelvin; 0 in vacuum voxels.
+    absorption_per_m: (nx, ny, nz) float32 κ in 1/m (already 0 where T < cutoff).
+    emission_scale: (nx, ny, nz) float32 or None — a non-physical multiplier of emission only.
+    origin_m: world position of the corner of voxel (0, 0, 0), m.
+    voxel_size_m: side of a voxel, m.
+    absorption_source: how κ was given ("grid", "constant 2.0 1/m", or the default's description).
+    """
+
+    temperature_K: NDArray[np.float32]
+    absorption_per_m: NDArray[np.float32]
+    emission_scale: NDArray[np.float32] | None
+    origin_m: tuple[float, float, float]
+    voxel_size_m: float
+    absorption_source: str = field(default="grid")
+
+    @property
+    def shape(self) -> tuple[int, int, int]:
+        return tuple(int(n) for n in self.temperature_K.shape)  # type: ignore[return-value]
+
+    @property
+    def size_m(self) -> NDArray[np.float64]:
+        """Extent of the box along x, y, z in m."""
+        return np.asarray(self.shape, dtype=np.float64) * self.voxel_size_m
+
+    @property
+    def bounds_m(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        lo = np.asarray(self.origin_m, dtype=np.float64)
+        return lo, lo + self.size_m
+
+    @property
+    def max_temperature_K(self) -> float:
+        return float(self.temperature_K.max())
+
+    def replace(self, **changes) -> Volume:
+        """A copy with ``changes`` applied (placement only; grids are re-validated by from_arrays)."""
+        return replace(self, **changes)
+
+    @classmethod
+    def from_arrays(
+        cls,
+        temperature: ArrayLike,
+        absorption: ArrayLike | float | None = None,
+        emission_scale: ArrayLike | float | None = None,
+        voxel_size_m: float | None = None,
+        origin_m: ArrayLike | None = None,
+        remap: Remap | None = None,
+        source: str = "temperature",
+    ) -> Volume:
+        """Validate and place grids. ``source`` names where the data came from, for error messages."""
+        raw = _grid(temperature, f"{source}")
+        temp = _remapped_temperature(raw, remap or Remap(), source)
+        vacuum = temp < (remap or Remap()).cutoff_K
+        temp[vacuum] = 0.0
+        voxel = _voxel_size(voxel_size_m, temp.shape)
+        kappa, how = _absorption(absorption, temp, voxel, source)
+        kappa[vacuum] = 0.0
+        scale = _optional_grid(emission_scale, temp.shape, "emission_scale", source)
+        origin = _origin(origin_m, temp.shape, voxel)
+        return cls(_f32(temp), _f32(kappa), scale, origin, voxel, how)
+
+
+def _grid(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    arr = _validate.finite(_validate.real_array(value, name), name)
+    if arr.ndim != 3:
+        raise ValueError(f"{name} must be a 3-D grid (nx, ny, nz); got shape {arr.shape}")
+    if arr.size == 0:
+        raise ValueError(f"{name} is empty: shape {arr.shape}")
+    return arr
+
+
+def _remapped_temperature(raw: NDArray, remap: Remap, source: str) -> NDArray[np.float64]:
+    temp = np.array(remap.apply(raw), dtype=np.float64)
+    negative = (temp < 0) & (temp >= remap.cutoff_K)
+    if negative.any():
+        index = tuple(int(i) for i in np.argwhere(negative)[0])
+        raise ValueError(
+            f"{source}: temperature {temp[index]:g} K at voxel {index} is negative after remap "
+            f"(offset={remap.offset:g}, scale={remap.scale:g}); kelvin must be >= 0 — "
+            "fix the remap or set a cutoff"
+        )
+    return temp
+
+
+def _voxel_size(voxel_size_m: float | None, shape: tuple[int, ...]) -> float:
+    if voxel_size_m is None:
+        return 1.0 / max(shape)
+    return _validate.positive_scalar(voxel_size_m, "voxel_size_m")
+
+
+def _origin(origin_m: ArrayLike | None, shape: tuple[int, ...], voxel: float) -> tuple:
+    if origin_m is None:
+        return tuple(-0.5 * n * voxel for n in shape)
+    origin = _validate.finite(_validate.real_array(origin_m, "origin_m"), "origin_m")
+    if origin.shape != (3,):
+        raise ValueError(f"origin_m must be 3 numbers (x, y, z) in m; got shape {origin.shape}")
+    return tuple(float(v) for v in origin)
+
+
+def _absorption(value, temp: NDArray, voxel: float, source: str) -> tuple[NDArray, str]:
+    if value is None:
+        kappa = DEFAULT_OPTICAL_DEPTH / (voxel * max(temp.shape))
+        grid = np.where(temp >= DEFAULT_ABSORPTION_MIN_K, kappa, 0.0)
+        return grid, f"default: {kappa:g} 1/m where T >= {DEFAULT_ABSORPTION_MIN_K:g} K"
+    if np.ndim(value) == 0:
+        kappa = _nonnegative_scalar(value, "absorption (1/m)")
+        return np.full(temp.shape, kappa), f"constant {kappa:g} 1/m"
+    grid = _optional_grid(value, temp.shape, "absorption", source)
+    return grid.astype(np.float64), "grid"
+
+
+def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] | None:
+    if value is None:
+        return None
+    if np.ndim(value) == 0:
+        return _f32(np.full(shape, _nonnegative_scalar(value, name)))
+    grid = _grid(value, f"{source}: {name}")
+    if grid.shape != shape:
+        raise ValueError(
+            f"{source}: {name} grid has shape {grid.shape}; expected the temperature's {shape}"
+        )
+    if (grid < 0).any():
+        index = tuple(int(i) for i in np.argwhere(grid < 0)[0])
+        raise ValueError(f"{source}: {name} must be >= 0; got {grid[index]:g} at voxel {index}")
+    return _f32(grid)
+
+
+def _nonnegative_scalar(value, name: str) -> float:
+    if value == 0:
+        return 0.0
+    return _validate.positive_scalar(value, name)
+
+
+def _f32(arr: NDArray) -> NDArray[np.float32]:
+    out = np.ascontiguousarray(arr, dtype=np.float32)
+    out.setflags(write=False)
+    return out
