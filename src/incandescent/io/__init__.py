@@ -1,0 +1,1 @@
+"""File input/output: EXR and PNG images (atomic writes, metadata in headers)."""
