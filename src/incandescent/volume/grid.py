@@ -8,7 +8,7 @@ Absorption. When no absorption is given, the *default absorption* applies: κ = 
 across the box's largest side L) in voxels at or above 500 K and 0 in colder voxels, so the glowing
 gas absorbs and the cold surroundings are vacuum. Temperature remapping (for fields that are not in
 kelvin) is ``T = (raw − offset) · scale``; voxels with T below ``cutoff_K`` are vacuum: they neither
-emit nor absorb.
+emit nor absorb. Negative kelvin after remapping is an error unless a cutoff (> 0) removes it.
 """
 
 from __future__ import annotations
@@ -41,6 +41,8 @@ class Remap:
                 raise ValueError(f"remap {name} must be finite; got {value!r}")
         if self.scale <= 0:
             raise ValueError(f"remap scale must be > 0; got {self.scale!r}")
+        if self.cutoff_K < 0:
+            raise ValueError(f"remap cutoff_K must be >= 0 K; got {self.cutoff_K!r}")
 
     def apply(self, raw: NDArray) -> NDArray[np.float64]:
         return (raw - self.offset) * self.scale
@@ -124,8 +126,8 @@ def _grid(value: ArrayLike, name: str) -> NDArray[np.float64]:
 
 def _remapped_temperature(raw: NDArray, remap: Remap, source: str) -> NDArray[np.float64]:
     temp = np.array(remap.apply(raw), dtype=np.float64)
-    negative = (temp < 0) & (temp >= remap.cutoff_K)
-    if negative.any():
+    negative = temp < 0
+    if remap.cutoff_K <= 0 and negative.any():
         index = tuple(int(i) for i in np.argwhere(negative)[0])
         raise ValueError(
             f"{source}: temperature {temp[index]:g} K at voxel {index} is negative after remap "

@@ -30,10 +30,12 @@ class _Kernel:
         self.dr, self.m = drjit_module(), m
         vol, lut, s = inputs.volume, inputs.lut, inputs.settings
         self.shape = vol.shape
-        self.kappa = m.Float(vol.absorption_per_m.ravel())
-        self.temp = m.Float(vol.temperature_K.ravel())
+        nx, ny, nz = (n + 2 for n in vol.shape)
+        self.strides = (ny * nz, nz, 1)
+        self.kappa = m.Float(_padded(vol.absorption_per_m))
+        self.temp = m.Float(_padded(vol.temperature_K))
         scale = vol.emission_scale
-        self.scale = None if scale is None else m.Float(scale.ravel())
+        self.scale = None if scale is None else m.Float(_padded(scale))
         self.lut = m.Float(lut.values.astype(np.float32).ravel())
         self.lut_size, self.lut_t_min = lut.size, np.float32(lut.t_min_K)
         self.lut_w_min, self.lut_inv_dw = np.float32(lut.w_min), np.float32(lut.inv_dw)
@@ -46,31 +48,33 @@ class _Kernel:
         self.cell_voxels = None if cells is None else np.float32(cells.cell_voxels)
 
     # --- sampling -------------------------------------------------------------------------
-    def axis(self, p, n: int):
-        """Trilinear indices (i0, i1) and weight along one axis; edge voxels clamp (DESIGN §4)."""
-        dr, m = self.dr, self.m
-        u = dr.clip(p - 0.5, 0.0, float(n - 1))
-        i0 = dr.minimum(m.UInt(u), max(n - 2, 0))
-        return i0, dr.minimum(i0 + 1, n - 1), u - m.Float(i0)
-
     def corners(self, p):
-        """Per-axis flat-index offsets and weights of the 8 trilinear neighbours of p."""
-        nx, ny, nz = self.shape
-        (x0, x1, fx), (y0, y1, fy), (z0, z1, fz) = (
-            self.axis(p[a], n) for a, n in enumerate(self.shape)
-        )
-        return (x0 * (ny * nz), x1 * (ny * nz), fx), (y0 * nz, y1 * nz, fy), (z0, z1, fz)
+        """Flat index of the lower trilinear neighbour of p and the weights along x, y, z.
+
+        Grids are padded by one edge-replicated voxel on every side (``_padded``), so voxel
+        centres sit at padded index i + 0.5 − 1 and no per-corner clamping is needed: a position
+        in the outer half voxel interpolates between two equal values (the edge rule, DESIGN §4).
+        """
+        dr, m = self.dr, self.m
+        index, weights = m.UInt(0), []
+        for a, n in enumerate(self.shape):
+            u = dr.clip(p[a], 0.0, float(n)) + 0.5  # padded voxel-centre coordinate
+            i0 = dr.minimum(m.UInt(u), n)
+            index = index + i0 * self.strides[a]
+            weights.append(u - m.Float(i0))
+        return index, weights
 
     def trilinear(self, grid, c):
         dr, Float = self.dr, self.m.Float
-        (x0, x1, fx), (y0, y1, fy), (z0, z1, fz) = c
+        base, (fx, fy, fz) = c
+        sx, sy, sz = self.strides
 
-        def lerp_x(y, z):
-            a = dr.gather(Float, grid, x0 + y + z)
-            return dr.fma(dr.gather(Float, grid, x1 + y + z) - a, fx, a)
+        def lerp_x(offset):
+            a = dr.gather(Float, grid, base + offset)
+            return dr.fma(dr.gather(Float, grid, base + (offset + sx)) - a, fx, a)
 
-        c0 = dr.lerp(lerp_x(y0, z0), lerp_x(y1, z0), fy)
-        c1 = dr.lerp(lerp_x(y0, z1), lerp_x(y1, z1), fy)
+        c0 = dr.lerp(lerp_x(0), lerp_x(sy), fy)
+        c1 = dr.lerp(lerp_x(sz), lerp_x(sy + sz), fy)
         return dr.lerp(c0, c1, fz)
 
     def emission(self, temp):
@@ -135,6 +139,11 @@ class _Kernel:
             t_exit = dr.minimum(t_exit, dr.select(d[a] == 0.0, np.inf, t_axis))
         k_exit = dr.floor((t_exit - t0) / self.dt - j) + 1.0
         return dr.maximum(k_exit, k + 1.0)
+
+
+def _padded(grid: np.ndarray) -> np.ndarray:
+    """The grid with one edge-replicated voxel on every side, flattened (C order)."""
+    return np.pad(grid, 1, mode="edge").ravel()
 
 
 def _ray_arrays(m, rays):

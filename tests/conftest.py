@@ -1,0 +1,22 @@
+"""Shared fixtures: backends parametrised so every Dr.Jit test runs on cpu, and on cuda where a GPU
+exists (skipped cleanly elsewhere)."""
+
+from __future__ import annotations
+
+import pytest
+
+from incandescent.render.backends.jit import cuda_problem, llvm_problem
+
+
+def _backend_param(name: str):
+    problem = llvm_problem() if name == "cpu" else cuda_problem()
+    marks = [pytest.mark.skipif(problem is not None, reason=problem or "")]
+    if name == "cuda":
+        marks.append(pytest.mark.cuda)
+    return pytest.param(name, marks=marks, id=name)
+
+
+@pytest.fixture(params=[_backend_param("cpu"), _backend_param("cuda")])
+def jit_backend(request) -> str:
+    """A Dr.Jit backend name: "cpu" always, "cuda" where a GPU is available."""
+    return request.param

@@ -1,0 +1,136 @@
+"""Volume and camera validation: bad input gets a clear error naming the value."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from incandescent.camera import Camera, default_camera
+from incandescent.render import RenderSettings, render
+from incandescent.volume import Remap, Volume
+
+
+def test_default_placement_centres_grid_with_largest_side_one_metre():
+    vol = Volume.from_arrays(np.full((10, 20, 5), 1000.0))
+    lo, hi = vol.bounds_m
+    np.testing.assert_allclose(lo, [-0.25, -0.5, -0.125])
+    np.testing.assert_allclose(hi, [0.25, 0.5, 0.125])
+    assert vol.voxel_size_m == pytest.approx(0.05)
+
+
+def test_default_absorption_follows_hot_gas():
+    temp = np.full((4, 4, 4), 300.0)
+    temp[1, 1, 1] = 1500.0
+    vol = Volume.from_arrays(temp)
+    assert vol.absorption_per_m[1, 1, 1] == pytest.approx(1.0 / (4 * 0.25))
+    assert vol.absorption_per_m.sum() == vol.absorption_per_m[1, 1, 1]
+    assert "default" in vol.absorption_source
+
+
+def test_remap_maps_raw_field_to_kelvin():
+    vol = Volume.from_arrays(np.full((2, 2, 2), 2.0), remap=Remap(offset=0.5, scale=1000.0))
+    assert np.all(vol.temperature_K == 1500.0)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "match"),
+    [
+        ({"temperature": np.full((2, 2), 1000.0)}, ValueError, r"3-D grid .* shape \(2, 2\)"),
+        ({"temperature": np.zeros((0, 2, 2))}, ValueError, "empty"),
+        ({"temperature": np.array([[[1000.0, np.nan]]])}, ValueError, r"finite; got nan"),
+        ({"temperature": np.array([[[np.inf]]])}, ValueError, "finite; got inf"),
+        ({"temperature": np.array([[[-5.0]]])}, ValueError, r"-5 K at voxel \(0, 0, 0\)"),
+        ({"temperature": np.ones((2, 2, 2), dtype=bool)}, TypeError, "dtype bool"),
+        ({"temperature": np.full((2, 2, 2), "hot")}, TypeError, "real number array"),
+        (
+            {"temperature": np.ones((2, 2, 2)), "absorption": np.ones((2, 2, 3))},
+            ValueError,
+            r"absorption grid has shape \(2, 2, 3\); expected the temperature's \(2, 2, 2\)",
+        ),
+        ({"temperature": np.ones((2, 2, 2)), "absorption": -1.0}, ValueError, "absorption"),
+        ({"temperature": np.ones((2, 2, 2)), "voxel_size_m": 0.0}, ValueError, "voxel_size_m"),
+        ({"temperature": np.ones((2, 2, 2)), "origin_m": (0, 0)}, ValueError, "origin_m"),
+    ],
+)
+def test_volume_rejects_bad_input(kwargs, error, match):
+    with pytest.raises(error, match=match):
+        Volume.from_arrays(**kwargs)
+
+
+def test_negative_kelvin_after_remap_names_the_remap():
+    with pytest.raises(ValueError, match=r"negative after remap \(offset=1, scale=100\)"):
+        Volume.from_arrays(np.full((2, 2, 2), 0.5), remap=Remap(offset=1.0, scale=100.0))
+
+
+def test_values_below_cutoff_may_be_negative_and_become_vacuum():
+    raw = np.array([[[-1.0, 2.0]]])
+    vol = Volume.from_arrays(raw, absorption=1.0, remap=Remap(scale=1000.0, cutoff_K=500.0))
+    assert vol.temperature_K.tolist() == [[[0.0, 2000.0]]]
+    assert vol.absorption_per_m.tolist() == [[[0.0, 1.0]]]
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"eye": (0, 0, 1), "target": (0, 0, 1)}, "eye and target coincide"),
+        ({"eye": (0, 2, 0), "target": (0, 0, 0)}, "parallel to the view direction"),
+        ({"eye": (0, 0, 1), "up": (0, 0, 0)}, "parallel to the view direction"),
+        ({"eye": (0, 0, 1), "fov_deg": 180.0}, r"fov_deg must be in \(0, 180\)"),
+        ({"eye": (0, 0, 1), "fov_deg": -3}, "fov_deg"),
+        ({"eye": (0, np.nan, 1)}, "camera eye must be finite"),
+        ({"eye": (0, 1)}, "camera eye must be 3 numbers"),
+        ({"eye": (0, 0, 1), "projection": "fisheye"}, "unknown camera projection 'fisheye'"),
+    ],
+)
+def test_camera_rejects_degenerate_input(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        Camera(**kwargs)
+
+
+def test_default_camera_sees_the_whole_box():
+    vol = Volume.from_arrays(np.full((8, 8, 8), 1500.0), absorption=1.0)
+    img = render(vol, settings=RenderSettings(width=32, height=32), backend="cpu")
+    covered = img.alpha > 0
+    assert covered[16, 16]
+    assert not covered[0, :].any() and not covered[-1, :].any()
+    assert not covered[:, 0].any() and not covered[:, -1].any()
+
+
+def test_image_orientation_row_zero_is_top_and_x_is_right():
+    temp = np.full((8, 8, 8), 300.0)
+    temp[6:, 6:, :] = 2000.0  # +x, +y corner
+    vol = Volume.from_arrays(temp)
+    cam = Camera(eye=(0, 0, 3), target=(0, 0, 0), projection="orthographic", ortho_height_m=1.0)
+    y = render(vol, cam, RenderSettings(width=8, height=8), backend="cpu").luminance
+    assert y[:4, 4:].sum() > 0  # upper right
+    assert y[4:, :].sum() == 0 and y[:, :4].sum() == 0
+
+
+def test_rays_are_column_major_for_kernels():
+    cam = default_camera((np.zeros(3) - 1, np.ones(3)))
+    origins, dirs = cam.generate_rays(3, 2)
+    assert dirs.shape == (6, 3)
+    # consecutive rays go down a column: same x film coordinate, decreasing y
+    right, up, _ = cam.basis()
+    assert np.dot(dirs[0], right) == pytest.approx(np.dot(dirs[1], right))
+    assert np.dot(dirs[0], up) > np.dot(dirs[1], up)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"width": 0}, "width must be an integer"),
+        ({"step_voxels": 0.0}, "step_voxels"),
+        ({"supersample": 2.5}, "supersample"),
+        ({"min_transmittance": 1.5}, "min_transmittance"),
+        ({"brightness": "sunny"}, "unknown brightness law 'sunny'"),
+    ],
+)
+def test_settings_reject_bad_values(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        RenderSettings(**kwargs)
+
+
+def test_render_rejects_non_volume():
+    with pytest.raises(TypeError, match="volume must be an incandescent.Volume; got ndarray"):
+        render(np.zeros((2, 2, 2)))  # type: ignore[arg-type]
