@@ -20,23 +20,23 @@ def _coords(shape: tuple[int, int, int]) -> tuple[NDArray, NDArray, NDArray]:
 
 
 def plume_temperature(n: int = 128, peak_K: float = 2000.0, seed: int = 1) -> NDArray[np.float32]:
-    """A rising turbulent plume: hot narrow base widening and cooling with height, with swirls.
+    """A rising turbulent plume: a hot narrow base widening and cooling with height, with swirls.
 
-    An n³ grid in kelvin (ambient 300 K); cheap to generate (no simulation).
+    An n³ grid in kelvin (ambient 300 K), x and z across, y up; cheap to generate (no simulation).
     """
     x, y, z = _coords((n, n, n))
     rng = np.random.default_rng(seed)
-    wobble = np.zeros_like(y)
-    for _ in range(4):
-        freq, phase, amp = rng.uniform(3, 9), rng.uniform(0, 2 * np.pi), rng.uniform(0.03, 0.08)
-        wobble = wobble + amp * y * np.sin(freq * y * np.pi + phase)
-    radius = 0.12 + 0.45 * y
-    r2 = (x - wobble) ** 2 + (z - 0.7 * wobble) ** 2
-    swirl = 1.0 + 0.25 * np.sin(10 * x + 7 * y) * np.sin(9 * z - 5 * y)
-    core = np.exp(-r2 / (2 * radius**2)) * swirl
-    height = np.exp(-((y - 0.25) ** 2) / 0.12) * np.clip(y * 12, 0, 1)
-    temperature = AMBIENT_K + (peak_K - AMBIENT_K) * np.clip(core * height, 0, 1.2)
-    return temperature.astype(np.float32)
+    wobble_x, wobble_z = np.zeros_like(y), np.zeros_like(y)
+    for _ in range(3):
+        freq, phase, amp = rng.uniform(2, 6), rng.uniform(0, 2 * np.pi), rng.uniform(0.05, 0.1)
+        wobble_x = wobble_x + amp * y * np.sin(freq * np.pi * y + phase)
+        wobble_z = wobble_z + amp * y * np.cos(freq * np.pi * y + 2 * phase)
+    radius = 0.12 + 0.38 * y
+    r2 = (x - wobble_x) ** 2 + (z - wobble_z) ** 2
+    swirl = 1.0 + 0.18 * np.sin(11 * x + 9 * y) * np.sin(8 * z - 13 * y) * np.sin(17 * y)
+    axis_K = peak_K * (1.0 - 0.5 * y) * np.clip(y * 10.0, 0.0, 1.0) * np.clip((1 - y) * 6, 0, 1)
+    heat = np.clip(np.exp(-r2 / (2 * radius**2)) * swirl, 0.0, 1.05)
+    return (AMBIENT_K + np.maximum(axis_K - AMBIENT_K, 0.0) * heat).astype(np.float32)
 
 
 def plume(n: int = 128, peak_K: float = 2000.0) -> Volume:

@@ -37,14 +37,14 @@ def render(
     settings: RenderSettings | None = None,
     backend: str | None = "auto",
 ) -> HDRImage:
-    """Render ``volume`` seen by ``camera`` (default: a three-quarter view framing the volume).
+    """Render ``volume`` seen by ``camera`` (default: a three-quarter view framing the gas).
 
     Returns absolute XYZ (Y in cd/m²) with metadata: backend, device, samples, seconds, settings.
     """
     if not isinstance(volume, Volume):
         raise TypeError(f"volume must be an incandescent.Volume; got {type(volume).__name__}")
     settings = settings or RenderSettings()
-    camera = camera or default_camera(volume.bounds_m)
+    camera = camera or default_camera(volume.content_bounds_m)
     name = resolve_backend(backend)
     inputs = _march_inputs(volume, camera, settings, name)
     result = run_march(inputs, name)
@@ -77,6 +77,7 @@ def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRI
         "samples": result.samples,
         "seconds": result.seconds,
         "absorption": inputs.volume.absorption_source,
+        "max_temperature_K": inputs.volume.max_temperature_K,
         "brightness": s.brightness,
         "observer": s.observer,
         "planck_constants": s.constants,

@@ -84,6 +84,16 @@ class Volume:
         return lo, lo + self.size_m
 
     @property
+    def content_bounds_m(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """World box around the voxels that absorb (and so may emit); the whole box if none do."""
+        occupied = np.argwhere(self.absorption_per_m > 0)
+        if occupied.size == 0:
+            return self.bounds_m
+        lo = np.asarray(self.origin_m) + occupied.min(axis=0) * self.voxel_size_m
+        hi = np.asarray(self.origin_m) + (occupied.max(axis=0) + 1) * self.voxel_size_m
+        return lo, hi
+
+    @property
     def max_temperature_K(self) -> float:
         return float(self.temperature_K.max())
 

@@ -1,0 +1,162 @@
+"""``incandescent bench``: named synthetic scenes on every available backend, side by side.
+
+Method (DESIGN.md §6): every case is rendered once untimed (kernel compilation, caches), then the
+cases are timed in interleaved rounds so that machine noise hits them alike; medians are reported.
+``ms_per_frame`` is the march time (no start-up, no kernel compilation); ``total_ms`` is the whole
+``render()`` call including host-side ray setup and macrocell construction. The NumPy reference is
+run at 1/8 of the resolution, once (it is ~1000× slower); compare it by samples/s.
+"""
+
+from __future__ import annotations
+
+import platform
+import statistics
+import subprocess
+import time
+from dataclasses import dataclass
+
+from incandescent import __version__, scenes
+from incandescent.render import RenderSettings, render
+from incandescent.render.backends import available_backends
+from incandescent.render.backends.jit import drjit_module
+
+SCENES = {
+    "plume": ("plume {n}³ at {r}²", lambda n: scenes.plume(n)),
+    "sparse": ("small flame in an empty {n}³ box at {r}²", lambda n: scenes.sparse_flame(n)),
+}
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    backend: str
+    threads: int | None  # None: all
+    skip_empty: bool
+    resolution_divisor: int = 1
+
+
+def _cases(backends: list[str], reference: bool) -> list[Case]:
+    cases = []
+    if "cuda" in backends:
+        cases.append(Case("cuda", "cuda", None, True))
+    cases += [
+        Case("cpu, all threads", "cpu", None, True),
+        Case("cpu, 1 thread", "cpu", 1, True),
+        Case("cpu, all threads, no skipping", "cpu", None, False),
+    ]
+    if reference:
+        cases.append(Case("reference (NumPy float64)", "reference", None, False, 8))
+    return cases
+
+
+def _time_case(case: Case, volume, resolution: int) -> dict:
+    dr = drjit_module()
+    all_threads = dr.thread_count()
+    r = max(8, resolution // case.resolution_divisor)
+    settings = RenderSettings(width=r, height=r, skip_empty=case.skip_empty)
+    if case.threads:
+        dr.set_thread_count(case.threads)
+    try:
+        start = time.perf_counter()
+        image = render(volume, settings=settings, backend=case.backend)
+        total = time.perf_counter() - start
+    finally:
+        dr.set_thread_count(all_threads)
+    meta = image.metadata
+    return {"seconds": meta["seconds"], "total": total, "samples": meta["samples"],
+            "device": meta["device"], "resolution": r}
+
+
+def _summarise(case: Case, runs: list[dict]) -> dict:
+    seconds = statistics.median(r["seconds"] for r in runs)
+    samples = runs[0]["samples"]
+    return {
+        "case": case.name,
+        "backend": case.backend,
+        "threads": case.threads or drjit_module().thread_count(),
+        "skip_empty": case.skip_empty,
+        "width": runs[0]["resolution"],
+        "height": runs[0]["resolution"],
+        "samples": samples,
+        "ms_per_frame": seconds * 1e3,
+        "total_ms": statistics.median(r["total"] for r in runs) * 1e3,
+        "samples_per_s": samples / seconds if seconds > 0 else None,
+        "repeats": len(runs),
+        "device": runs[0]["device"],
+    }
+
+
+def _scene_report(name: str, size: int, resolution: int, repeat: int, reference: bool,
+                  progress) -> dict:
+    label, make = SCENES[name]
+    volume = make(size)
+    cases = _cases(available_backends(), reference)
+    runs: dict[str, list[dict]] = {c.name: [] for c in cases}
+    for case in cases:  # warm-up: compile kernels, fill caches
+        _time_case(case, volume, resolution)
+    for round_ in range(repeat):
+        for case in cases:
+            if case.backend == "reference" and round_ > 0:
+                continue
+            if progress is not None:
+                progress.print(f"  {name}: round {round_ + 1}/{repeat}: {case.name}", style="dim")
+            runs[case.name].append(_time_case(case, volume, resolution))
+    results = [_summarise(c, runs[c.name]) for c in cases]
+    return {"scene": name, "description": label.format(n=size, r=resolution),
+            "results": results, "ratios": _ratios(results)}
+
+
+def _ratios(results: list[dict]) -> dict:
+    ms = {r["case"]: r["ms_per_frame"] for r in results}
+    best = ms["cpu, all threads"]
+    return {
+        "threads_speedup": ms["cpu, 1 thread"] / best,
+        "skipping_speedup": ms["cpu, all threads, no skipping"] / best,
+    }
+
+
+def _commit() -> str:
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                             text=True, timeout=5, check=False)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
+def run(scene_names: list[str], size: int = 256, resolution: int = 512, repeat: int = 5,
+        reference: bool = True, progress=None) -> dict:
+    """Benchmark ``scene_names``; returns a JSON-able report."""
+    unknown = [s for s in scene_names if s not in SCENES]
+    if unknown:
+        raise ValueError(f"unknown bench scene {unknown[0]!r}; expected: {', '.join(SCENES)}")
+    if repeat < 1 or size < 8 or resolution < 8:
+        raise ValueError("bench needs repeat >= 1, size >= 8 and resolution >= 8")
+    dr = drjit_module()
+    return {
+        "incandescent": __version__,
+        "drjit": dr.__version__,
+        "python": platform.python_version(),
+        "machine": platform.processor() or platform.machine(),
+        "commit": _commit(),
+        "scenes": [_scene_report(s, size, resolution, repeat, reference, progress)
+                   for s in scene_names],
+    }
+
+
+def print_table(report: dict, console) -> None:
+    """Render the report as rich tables."""
+    from rich.table import Table
+
+    for scene in report["scenes"]:
+        table = Table(title=scene["description"])
+        for col in ("case", "image", "samples", "ms/frame", "total ms", "Msamples/s"):
+            table.add_column(col, justify="right" if col != "case" else "left")
+        for r in scene["results"]:
+            rate = r["samples_per_s"] or 0.0
+            table.add_row(r["case"], f"{r['width']}²", f"{r['samples']:,}",
+                          f"{r['ms_per_frame']:.1f}", f"{r['total_ms']:.1f}", f"{rate / 1e6:.1f}")
+        console.print(table)
+        ratios = scene["ratios"]
+        console.print(f"all threads vs 1 thread: {ratios['threads_speedup']:.2f}×; "
+                      f"skipping vs none: {ratios['skipping_speedup']:.2f}×")

@@ -1,0 +1,196 @@
+"""The ``incandescent`` command line: thin typer commands over the Python API."""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+from incandescent import __version__
+
+app = typer.Typer(
+    help="Physically based volumetric rendering of incandescent gas (flames, explosions, plumes).",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
+console = Console(stderr=True)
+
+DEMOS = ("plume", "sparse", "sphere")
+
+
+def _fail(message: str) -> typer.Exit:
+    console.print(f"[bold red]error:[/] {message}", highlight=False)
+    return typer.Exit(code=2)
+
+
+def _vector(text: str | None, name: str) -> tuple[float, float, float] | None:
+    if text is None:
+        return None
+    parts = text.split(",")
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3:
+        raise _fail(f"--{name} must be three numbers X,Y,Z in m; got {text!r}")
+    return values  # type: ignore[return-value]
+
+
+@app.callback()
+def main(
+    verbose: bool = typer.Option(False, "--verbose", "-v", help="Log backend selection and timings."),
+) -> None:
+    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, format="%(message)s")
+
+
+@app.command()
+def version() -> None:
+    """Print the version."""
+    typer.echo(__version__)
+
+
+@app.command()
+def render(
+    volume: Path = typer.Argument(..., help="Volume file: .npy (temperature, K) or .npz (named grids)."),
+    output: Path = typer.Option(..., "--output", "-o", help="Output image: .exr (HDR) or .png."),
+    width: int = typer.Option(512, help="Image width in pixels."),
+    height: int = typer.Option(512, help="Image height in pixels."),
+    step: float = typer.Option(0.5, help="Ray-march step in voxels."),
+    supersample: int = typer.Option(1, help="N for N×N rays per pixel."),
+    seed: int = typer.Option(0, help="Jitter seed."),
+    absorption: float = typer.Option(None, help="Constant absorption κ in 1/m (default: grid in the"
+                                     " .npz, else 1/L where T >= 500 K, L = the box's largest side)."),
+    voxel_size: float = typer.Option(None, help="Voxel side in m (default: largest side 1 m)."),
+    temperature_grid: str = typer.Option("temperature", help="Name of the temperature grid (.npz)."),
+    offset: float = typer.Option(0.0, help="Temperature remap: T = (raw − offset)·scale."),
+    scale: float = typer.Option(1.0, help="Temperature remap scale (K per raw unit)."),
+    cutoff: float = typer.Option(0.0, help="Voxels below this many K are vacuum."),
+    eye: str = typer.Option(None, help="Camera position X,Y,Z in m (default: three-quarter view)."),
+    target: str = typer.Option(None, help="Point looked at, X,Y,Z in m (default: box centre)."),
+    fov: float = typer.Option(40.0, help="Vertical field of view in degrees."),
+    backend: str = typer.Option("auto", help="auto | cpu | cuda | reference (env INCANDESCENT_BACKEND)."),
+    exposure: float = typer.Option(0.0, help="Exposure compensation in EV (PNG only)."),
+    auto_exposure: bool = typer.Option(True, help="Auto exposure from the 99th luminance percentile (PNG)."),
+    tonemap: str = typer.Option("filmic", help="PNG tone map: clip | reinhard | filmic."),
+    space: str = typer.Option("srgb", help="RGB space: srgb | rec2020 | display_p3 | acescg."),
+    stats: Path = typer.Option(None, help="Write render statistics (JSON) to this file."),
+    overwrite: bool = typer.Option(False, help="Replace existing output files."),
+) -> None:
+    """Render a volume file to an image."""
+    from incandescent import api
+
+    try:
+        grids = api.load_volume(volume, temperature_grid, absorption, voxel_size,
+                                api.Remap(offset=offset, scale=scale, cutoff_K=cutoff))
+        camera = api.camera_from(grids, _vector(eye, "eye"), _vector(target, "target"), fov)
+        settings = api.RenderSettings(width=width, height=height, step_voxels=step,
+                                      supersample=supersample, seed=seed, space=space)
+        display = api.DisplaySettings(space=space, exposure_ev=exposure,
+                                      auto_exposure=auto_exposure, tonemap=tonemap)
+        _check_outputs([output, stats], overwrite)
+        start = time.perf_counter()
+        image = api.render(grids, camera, settings, backend=backend)
+        written = [api.save_image(image, output, display, overwrite=overwrite)]
+        if stats is not None:
+            written.append(api.write_json(stats, _stats(image, start), overwrite=overwrite))
+    except (ValueError, TypeError, FileNotFoundError, FileExistsError, RuntimeError) as error:
+        raise _fail(str(error)) from None
+    _summary(image, written)
+
+
+def _check_outputs(paths: list[Path | None], overwrite: bool) -> None:
+    """Fail before rendering, not after, when an output exists or its folder is missing."""
+    for path in filter(None, paths):
+        if path.exists() and not overwrite:
+            raise FileExistsError(f"{path} exists; pass --overwrite to replace it")
+        if not path.parent.is_dir():
+            raise FileNotFoundError(f"{path}: folder {path.parent} does not exist")
+
+
+def _stats(image, start: float) -> dict:
+    meta = image.metadata
+    return {
+        "samples": int(meta["samples"]),
+        "seconds": float(meta["seconds"]),
+        "total_seconds": time.perf_counter() - start,
+        "backend": meta["backend"],
+        "device": meta["device"],
+        "absorption": meta["absorption"],
+        "width": image.width,
+        "height": image.height,
+        "max_luminance_cd_m2": float(image.luminance.max()),
+    }
+
+
+def _summary(image, written: list[Path]) -> None:
+    meta = image.metadata
+    console.print(
+        f"rendered {image.width}×{image.height} on {meta['backend']} ({meta['device']}): "
+        f"{meta['samples']:,} samples in {meta['seconds'] * 1e3:.1f} ms; "
+        f"absorption {meta['absorption']}",
+        highlight=False,
+    )
+    for path in written:
+        console.print(f"  wrote {path}", highlight=False)
+
+
+@app.command()
+def demo(
+    name: str = typer.Argument("plume", help=f"Scene: {', '.join(DEMOS)}."),
+    output: Path = typer.Option(None, "--output", "-o", help="Output .png or .exr (default NAME.png)."),
+    size: int = typer.Option(128, help="Grid resolution (voxels per side)."),
+    width: int = typer.Option(512, help="Image width in pixels."),
+    height: int = typer.Option(512, help="Image height in pixels."),
+    backend: str = typer.Option("auto", help="auto | cpu | cuda | reference."),
+    overwrite: bool = typer.Option(False, help="Replace an existing output file."),
+) -> None:
+    """Render a built-in demo scene (no input files needed)."""
+    from incandescent import api, scenes
+
+    makers = {"plume": scenes.plume, "sparse": scenes.sparse_flame, "sphere": scenes.soot_sphere}
+    if name not in makers:
+        raise _fail(f"unknown demo {name!r}; expected one of: {', '.join(DEMOS)}")
+    output = output or Path(f"{name}.png")
+    try:
+        _check_outputs([output], overwrite)
+        with console.status(f"building the {name} scene ({size}³)…"):
+            volume = makers[name](size)
+        settings = api.RenderSettings(width=width, height=height)
+        with console.status(f"rendering {width}×{height}…"):
+            image = api.render(volume, settings=settings, backend=backend)
+        written = [api.save_image(image, output, overwrite=overwrite)]
+    except (ValueError, TypeError, FileNotFoundError, FileExistsError, RuntimeError) as error:
+        raise _fail(str(error)) from None
+    _summary(image, written)
+
+
+@app.command()
+def bench(
+    as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
+    scenes: str = typer.Option("plume,sparse", help="Comma-separated scenes: plume, sparse."),
+    size: int = typer.Option(256, help="Grid resolution of the scenes."),
+    resolution: int = typer.Option(512, help="Image width and height."),
+    repeat: int = typer.Option(5, help="Timed repetitions per case (median reported)."),
+    reference: bool = typer.Option(True, help="Include the NumPy reference (at 1/4 resolution)."),
+) -> None:
+    """Benchmark the backends on named synthetic scenes (samples/s, ms/frame)."""
+    from incandescent import benchmark
+
+    try:
+        report = benchmark.run(scenes.split(","), size, resolution, repeat, reference,
+                               progress=None if as_json else console)
+    except (ValueError, RuntimeError) as error:
+        raise _fail(str(error)) from None
+    if as_json:
+        typer.echo(json.dumps(report, indent=2))
+    else:
+        benchmark.print_table(report, Console())
+
+
+if __name__ == "__main__":  # pragma: no cover
+    app()
