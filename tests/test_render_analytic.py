@@ -1,4 +1,4 @@
-"""Analytic renders (DESIGN.md §5): the marchers against closed-form emission–absorption solutions."""
+"""Analytic renders (DESIGN.md §5): the marchers against closed-form solutions."""
 
 from __future__ import annotations
 
@@ -15,8 +15,12 @@ BACKENDS = ["reference", "cpu"]
 
 def _face_on(depth_m: float) -> Camera:
     """Orthographic camera looking down −z at the face z = +depth/2 of a box centred at 0."""
-    return Camera(eye=(0.0, 0.0, depth_m), target=(0.0, 0.0, 0.0), projection="orthographic",
-                  ortho_height_m=0.5)
+    return Camera(
+        eye=(0.0, 0.0, depth_m),
+        target=(0.0, 0.0, 0.0),
+        projection="orthographic",
+        ortho_height_m=0.5,
+    )
 
 
 def _slab(temperature_K: float, kappa: float, shape=(4, 4, 10)) -> Volume:
@@ -77,8 +81,7 @@ def _two_layer_solution(t_front, tau_front, t_back, tau_back) -> np.ndarray:
 def test_hot_behind_cold_differs_from_cold_behind_hot_as_two_layer_solution(backend):
     """Each layer is 1 m thick; the one-voxel blend at the interface bounds the error (< 1 %)."""
     hot, cold, k_hot, k_cold = 2400.0, 1500.0, 0.8, 1.5
-    cam = Camera(eye=(0, 0, 5.0), target=(0, 0, 0), projection="orthographic",
-                 ortho_height_m=0.004)
+    cam = Camera(eye=(0, 0, 5.0), target=(0, 0, 0), projection="orthographic", ortho_height_m=0.004)
     s = RenderSettings(width=2, height=2, jitter=False)
     hot_front = render(_two_layer(hot, k_hot, cold, k_cold), cam, s, backend=backend).xyz[0, 0]
     cold_front = render(_two_layer(cold, k_cold, hot, k_hot), cam, s, backend=backend).xyz[0, 0]
@@ -102,8 +105,13 @@ def test_mirror_symmetric_volume_renders_mirror_symmetric_image(backend, project
     temp = _mirror_symmetric_field()
     assert np.array_equal(temp, temp[::-1])
     vol = Volume.from_arrays(temp, absorption=np.where(temp > 400, 3.0, 0.2))
-    cam = Camera(eye=(0.0, 0.4, 2.5), target=(0.0, 0.0, 0.0), fov_deg=35.0,
-                 projection=projection, ortho_height_m=1.2)
+    cam = Camera(
+        eye=(0.0, 0.4, 2.5),
+        target=(0.0, 0.0, 0.0),
+        fov_deg=35.0,
+        projection=projection,
+        ortho_height_m=1.2,
+    )
     img = render(vol, cam, RenderSettings(width=20, height=14, jitter=False), backend=backend)
     y = img.xyz[..., 1]
     assert y.max() > 0
@@ -127,8 +135,9 @@ def test_cutoff_makes_cold_voxels_vacuum():
     s = RenderSettings(width=3, height=3)
     cut = Volume.from_arrays(temp, absorption=1.0, voxel_size_m=0.1, remap=Remap(cutoff_K=1000.0))
     vacuum_temp = np.where(temp < 1000.0, 0.0, temp)
-    vacuum = Volume.from_arrays(vacuum_temp, absorption=np.where(temp < 1000.0, 0.0, 1.0),
-                                voxel_size_m=0.1)
+    vacuum = Volume.from_arrays(
+        vacuum_temp, absorption=np.where(temp < 1000.0, 0.0, 1.0), voxel_size_m=0.1
+    )
     uncut = Volume.from_arrays(temp, absorption=1.0, voxel_size_m=0.1)
     a, b, c = (render(v, _face_on(3.0), s, backend="cpu").xyz[1, 1] for v in (cut, vacuum, uncut))
     np.testing.assert_array_equal(a, b)
@@ -137,8 +146,9 @@ def test_cutoff_makes_cold_voxels_vacuum():
 
 def test_emission_scale_multiplies_emission_only():
     vol = _slab(2200.0, 1.0)
-    scaled = Volume.from_arrays(np.full((4, 4, 10), 2200.0), absorption=1.0, voxel_size_m=0.1,
-                                emission_scale=3.0)
+    scaled = Volume.from_arrays(
+        np.full((4, 4, 10), 2200.0), absorption=1.0, voxel_size_m=0.1, emission_scale=3.0
+    )
     s = RenderSettings(width=3, height=3)
     a = render(vol, _face_on(3.0), s, backend="cpu")
     b = render(scaled, _face_on(3.0), s, backend="cpu")

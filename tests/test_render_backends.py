@@ -18,8 +18,13 @@ def _random_volume(seed: int, shape=(7, 9, 6)) -> Volume:
     temp = rng.uniform(600.0, 3200.0, shape)
     kappa = rng.uniform(0.0, 6.0, shape) * (rng.random(shape) > 0.3)
     scale = rng.uniform(0.5, 2.0, shape)
-    return Volume.from_arrays(temp, absorption=kappa, emission_scale=scale, voxel_size_m=0.05,
-                              origin_m=(-0.2, -0.1, -0.15))
+    return Volume.from_arrays(
+        temp,
+        absorption=kappa,
+        emission_scale=scale,
+        voxel_size_m=0.05,
+        origin_m=(-0.2, -0.1, -0.15),
+    )
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -39,7 +39,11 @@ def load_volume(
     grids = load_grids(path, temperature_grid)
     kappa = absorption if absorption is not None else grids.absorption
     return Volume.from_arrays(
-        grids.temperature, kappa, grids.emission_scale, voxel_size_m, remap=remap,
+        grids.temperature,
+        kappa,
+        grids.emission_scale,
+        voxel_size_m,
+        remap=remap,
         source=str(grids.path),
     )
 

@@ -63,8 +63,13 @@ def _time_case(case: Case, volume, resolution: int) -> dict:
     finally:
         dr.set_thread_count(all_threads)
     meta = image.metadata
-    return {"seconds": meta["seconds"], "total": total, "samples": meta["samples"],
-            "device": meta["device"], "resolution": r}
+    return {
+        "seconds": meta["seconds"],
+        "total": total,
+        "samples": meta["samples"],
+        "device": meta["device"],
+        "resolution": r,
+    }
 
 
 def _summarise(case: Case, runs: list[dict]) -> dict:
@@ -86,8 +91,9 @@ def _summarise(case: Case, runs: list[dict]) -> dict:
     }
 
 
-def _scene_report(name: str, size: int, resolution: int, repeat: int, reference: bool,
-                  progress) -> dict:
+def _scene_report(
+    name: str, size: int, resolution: int, repeat: int, reference: bool, progress
+) -> dict:
     label, make = SCENES[name]
     volume = make(size)
     cases = _cases(available_backends(), reference)
@@ -102,8 +108,12 @@ def _scene_report(name: str, size: int, resolution: int, repeat: int, reference:
                 progress.print(f"  {name}: round {round_ + 1}/{repeat}: {case.name}", style="dim")
             runs[case.name].append(_time_case(case, volume, resolution))
     results = [_summarise(c, runs[c.name]) for c in cases]
-    return {"scene": name, "description": label.format(n=size, r=resolution),
-            "results": results, "ratios": _ratios(results)}
+    return {
+        "scene": name,
+        "description": label.format(n=size, r=resolution),
+        "results": results,
+        "ratios": _ratios(results),
+    }
 
 
 def _ratios(results: list[dict]) -> dict:
@@ -117,15 +127,26 @@ def _ratios(results: list[dict]) -> dict:
 
 def _commit() -> str:
     try:
-        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                             text=True, timeout=5, check=False)
+        out = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+            timeout=5,
+            check=False,
+        )
         return out.stdout.strip() or "unknown"
     except (OSError, subprocess.SubprocessError):
         return "unknown"
 
 
-def run(scene_names: list[str], size: int = 256, resolution: int = 512, repeat: int = 5,
-        reference: bool = True, progress=None) -> dict:
+def run(
+    scene_names: list[str],
+    size: int = 256,
+    resolution: int = 512,
+    repeat: int = 5,
+    reference: bool = True,
+    progress=None,
+) -> dict:
     """Benchmark ``scene_names``; returns a JSON-able report."""
     unknown = [s for s in scene_names if s not in SCENES]
     if unknown:
@@ -139,8 +160,9 @@ def run(scene_names: list[str], size: int = 256, resolution: int = 512, repeat: 
         "python": platform.python_version(),
         "machine": platform.processor() or platform.machine(),
         "commit": _commit(),
-        "scenes": [_scene_report(s, size, resolution, repeat, reference, progress)
-                   for s in scene_names],
+        "scenes": [
+            _scene_report(s, size, resolution, repeat, reference, progress) for s in scene_names
+        ],
     }
 
 
@@ -154,9 +176,17 @@ def print_table(report: dict, console) -> None:
             table.add_column(col, justify="right" if col != "case" else "left")
         for r in scene["results"]:
             rate = r["samples_per_s"] or 0.0
-            table.add_row(r["case"], f"{r['width']}²", f"{r['samples']:,}",
-                          f"{r['ms_per_frame']:.1f}", f"{r['total_ms']:.1f}", f"{rate / 1e6:.1f}")
+            table.add_row(
+                r["case"],
+                f"{r['width']}²",
+                f"{r['samples']:,}",
+                f"{r['ms_per_frame']:.1f}",
+                f"{r['total_ms']:.1f}",
+                f"{rate / 1e6:.1f}",
+            )
         console.print(table)
         ratios = scene["ratios"]
-        console.print(f"all threads vs 1 thread: {ratios['threads_speedup']:.2f}×; "
-                      f"skipping vs none: {ratios['skipping_speedup']:.2f}×")
+        console.print(
+            f"all threads vs 1 thread: {ratios['threads_speedup']:.2f}×; "
+            f"skipping vs none: {ratios['skipping_speedup']:.2f}×"
+        )

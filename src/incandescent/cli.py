@@ -43,7 +43,9 @@ def _vector(text: str | None, name: str) -> tuple[float, float, float] | None:
 
 @app.callback()
 def main(
-    verbose: bool = typer.Option(False, "--verbose", "-v", help="Log backend selection and timings."),
+    verbose: bool = typer.Option(
+        False, "--verbose", "-v", help="Log backend selection and timings."
+    ),
 ) -> None:
     logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, format="%(message)s")
 
@@ -56,26 +58,37 @@ def version() -> None:
 
 @app.command()
 def render(
-    volume: Path = typer.Argument(..., help="Volume file: .npy (temperature, K) or .npz (named grids)."),
+    volume: Path = typer.Argument(
+        ..., help="Volume file: .npy (temperature, K) or .npz (named grids)."
+    ),
     output: Path = typer.Option(..., "--output", "-o", help="Output image: .exr (HDR) or .png."),
     width: int = typer.Option(512, help="Image width in pixels."),
     height: int = typer.Option(512, help="Image height in pixels."),
     step: float = typer.Option(0.5, help="Ray-march step in voxels."),
     supersample: int = typer.Option(1, help="N for N×N rays per pixel."),
     seed: int = typer.Option(0, help="Jitter seed."),
-    absorption: float = typer.Option(None, help="Constant absorption κ in 1/m (default: grid in the"
-                                     " .npz, else 1/L where T >= 500 K, L = the box's largest side)."),
+    absorption: float = typer.Option(
+        None,
+        help="Constant absorption κ in 1/m (default: grid in the"
+        " .npz, else 1/L where T >= 500 K, L = the box's largest side).",
+    ),
     voxel_size: float = typer.Option(None, help="Voxel side in m (default: largest side 1 m)."),
-    temperature_grid: str = typer.Option("temperature", help="Name of the temperature grid (.npz)."),
+    temperature_grid: str = typer.Option(
+        "temperature", help="Name of the temperature grid (.npz)."
+    ),
     offset: float = typer.Option(0.0, help="Temperature remap: T = (raw − offset)·scale."),
     scale: float = typer.Option(1.0, help="Temperature remap scale (K per raw unit)."),
     cutoff: float = typer.Option(0.0, help="Voxels below this many K are vacuum."),
     eye: str = typer.Option(None, help="Camera position X,Y,Z in m (default: three-quarter view)."),
     target: str = typer.Option(None, help="Point looked at, X,Y,Z in m (default: box centre)."),
     fov: float = typer.Option(40.0, help="Vertical field of view in degrees."),
-    backend: str = typer.Option("auto", help="auto | cpu | cuda | reference (env INCANDESCENT_BACKEND)."),
+    backend: str = typer.Option(
+        "auto", help="auto | cpu | cuda | reference (env INCANDESCENT_BACKEND)."
+    ),
     exposure: float = typer.Option(0.0, help="Exposure compensation in EV (PNG only)."),
-    auto_exposure: bool = typer.Option(True, help="Auto exposure from the 99th luminance percentile (PNG)."),
+    auto_exposure: bool = typer.Option(
+        True, help="Auto exposure from the 99th luminance percentile (PNG)."
+    ),
     tonemap: str = typer.Option("filmic", help="PNG tone map: clip | reinhard | filmic."),
     space: str = typer.Option("srgb", help="RGB space: srgb | rec2020 | display_p3 | acescg."),
     stats: Path = typer.Option(None, help="Write render statistics (JSON) to this file."),
@@ -85,13 +98,25 @@ def render(
     from incandescent import api
 
     try:
-        grids = api.load_volume(volume, temperature_grid, absorption, voxel_size,
-                                api.Remap(offset=offset, scale=scale, cutoff_K=cutoff))
+        grids = api.load_volume(
+            volume,
+            temperature_grid,
+            absorption,
+            voxel_size,
+            api.Remap(offset=offset, scale=scale, cutoff_K=cutoff),
+        )
         camera = api.camera_from(grids, _vector(eye, "eye"), _vector(target, "target"), fov)
-        settings = api.RenderSettings(width=width, height=height, step_voxels=step,
-                                      supersample=supersample, seed=seed, space=space)
-        display = api.DisplaySettings(space=space, exposure_ev=exposure,
-                                      auto_exposure=auto_exposure, tonemap=tonemap)
+        settings = api.RenderSettings(
+            width=width,
+            height=height,
+            step_voxels=step,
+            supersample=supersample,
+            seed=seed,
+            space=space,
+        )
+        display = api.DisplaySettings(
+            space=space, exposure_ev=exposure, auto_exposure=auto_exposure, tonemap=tonemap
+        )
         _check_outputs([output, stats], overwrite)
         start = time.perf_counter()
         image = api.render(grids, camera, settings, backend=backend)
@@ -142,7 +167,9 @@ def _summary(image, written: list[Path]) -> None:
 @app.command()
 def demo(
     name: str = typer.Argument("plume", help=f"Scene: {', '.join(DEMOS)}."),
-    output: Path = typer.Option(None, "--output", "-o", help="Output .png or .exr (default NAME.png)."),
+    output: Path = typer.Option(
+        None, "--output", "-o", help="Output .png or .exr (default NAME.png)."
+    ),
     size: int = typer.Option(128, help="Grid resolution (voxels per side)."),
     width: int = typer.Option(512, help="Image width in pixels."),
     height: int = typer.Option(512, help="Image height in pixels."),
@@ -182,8 +209,14 @@ def bench(
     from incandescent import benchmark
 
     try:
-        report = benchmark.run(scenes.split(","), size, resolution, repeat, reference,
-                               progress=None if as_json else console)
+        report = benchmark.run(
+            scenes.split(","),
+            size,
+            resolution,
+            repeat,
+            reference,
+            progress=None if as_json else console,
+        )
     except (ValueError, RuntimeError) as error:
         raise _fail(str(error)) from None
     if as_json:

@@ -56,7 +56,8 @@ CODATA_2018 = PlanckConstants(
     c2=H_PLANCK * C_LIGHT / K_BOLTZMANN,
 )
 #: CIE 015:2018 / ITS-90 second radiation constant c2 = 1.4388e-2 m·K (what colour-science uses);
-#: c1 from CODATA. Differs from CODATA 2018 c2 by 3e-4 relative.
+#: c1 from CODATA. Its c2 is 1.6e-5 (relative) above CODATA 2018's, which lowers B_λ by
+#: about x·1.6e-5 at x = c2/(λT), e.g. 2e-4 at 555 nm and 2000 K.
 CIE_ITS90 = PlanckConstants("cie", c1=CODATA_2018.c1, c2=1.4388e-2)
 #: The 2011 paper's constants: c1 = 3.74183e-16 W·m², c2 = 1.4388e-2 m·K.
 PAPER_2011 = PlanckConstants("paper", c1=3.74183e-16, c2=1.4388e-2)
@@ -74,4 +75,6 @@ def planck_constants(name: str | PlanckConstants) -> PlanckConstants:
         return PLANCK_CONSTANT_SETS[name]
     except KeyError:
         valid = ", ".join(PLANCK_CONSTANT_SETS)
-        raise ValueError(f"unknown Planck constant set {name!r}; expected one of: {valid}") from None
+        raise ValueError(
+            f"unknown Planck constant set {name!r}; expected one of: {valid}"
+        ) from None

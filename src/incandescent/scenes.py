@@ -53,7 +53,9 @@ def sparse_flame(n: int = 256, flame_fraction: float = 0.12, peak_K: float = 190
     return Volume.from_arrays(temperature, source=f"sparse_flame({n})")
 
 
-def soot_sphere(n: int = 64, temperature_K: float = 3000.0, absorption_per_m: float = 0.5) -> Volume:
+def soot_sphere(
+    n: int = 64, temperature_K: float = 3000.0, absorption_per_m: float = 0.5
+) -> Volume:
     """The paper's first scene: a roughly spherical cloud of transparent soot at ~3000 K."""
     x, y, z = _coords((n, n, n))
     r = np.sqrt(x**2 + ((y - 0.5) * 2) ** 2 + z**2)

@@ -1,5 +1,6 @@
-"""Look-at cameras (DESIGN.md §4): right-handed world, +y up, image row 0 at the top, pixel centres at
-(i + 0.5, j + 0.5). Cameras are frozen values; change them with :meth:`Camera.replace`.
+"""Look-at cameras (DESIGN.md §4): right-handed world, +y up, image row 0 at the top,
+pixel centres at (i + 0.5, j + 0.5). Cameras are frozen values; change them with
+:meth:`Camera.replace`.
 """
 
 from __future__ import annotations
@@ -70,7 +71,9 @@ class Camera:
         right = right / norm
         return right, np.cross(right, forward), forward
 
-    def generate_rays(self, width: int, height: int, supersample: int = 1) -> tuple[NDArray, NDArray]:
+    def generate_rays(
+        self, width: int, height: int, supersample: int = 1
+    ) -> tuple[NDArray, NDArray]:
         """World-space ray origins and unit directions, float64 (n, 3).
 
         Ray order is column-major — consecutive rays go *down an image column* (faster in the

@@ -1,4 +1,4 @@
-"""Saving an HDRImage: EXR (linear, unclipped, with metadata and alpha) or PNG (display pipeline)."""
+"""Saving an HDRImage: EXR (linear, unclipped, metadata, alpha) or PNG (display pipeline)."""
 
 from __future__ import annotations
 
@@ -32,8 +32,9 @@ def save_image(
     suffix = path.suffix.lower()
     if suffix == ".exr":
         meta = _metadata(image, {"exposure": "none (scene-referred)"})
-        return write_exr(path, image.rgb(), meta, overwrite=overwrite,
-                         extra_channels={"A": image.alpha})
+        return write_exr(
+            path, image.rgb(), meta, overwrite=overwrite, extra_channels={"A": image.alpha}
+        )
     if suffix == ".png":
         display = display or DisplaySettings(space=image.space)
         pixels = to_display(image.xyz, display, hottest_K=image.metadata.get("max_temperature_K"))

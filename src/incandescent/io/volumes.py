@@ -52,7 +52,9 @@ def load_grids(path: str | Path, temperature_grid: str = "temperature") -> Loade
     """Read the grids of a ``.npy`` or ``.npz`` file (errors name the file and the problem)."""
     path = Path(path)
     if path.suffix.lower() not in SUFFIXES:
-        raise ValueError(f"{path}: unsupported volume format {path.suffix!r}; expected .npy or .npz")
+        raise ValueError(
+            f"{path}: unsupported volume format {path.suffix!r}; expected .npy or .npz"
+        )
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such volume file")
     data = _read(path)

@@ -27,8 +27,9 @@ def _cached_lut(t_max_K: float, observer: str, constants: str) -> EmissionLUT:
 def emission_lut(volume: Volume, settings: RenderSettings) -> EmissionLUT:
     """The T ↦ XYZ table for this volume's temperature range (cached by range and physics)."""
     t_max = max(1e5, float(np.nextafter(np.float32(volume.max_temperature_K), np.inf)) * 1.001)
-    return _cached_lut(round(t_max, -2) if t_max > 1e5 else 1e5, settings.observer,
-                       settings.constants)
+    return _cached_lut(
+        round(t_max, -2) if t_max > 1e5 else 1e5, settings.observer, settings.constants
+    )
 
 
 def render(

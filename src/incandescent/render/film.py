@@ -51,7 +51,7 @@ class HDRImage:
 
 
 def resolve_pixels(values: NDArray, width: int, height: int, supersample: int) -> NDArray:
-    """Average the s² sub-pixel values of column-major ray data (n, ...) into an (H, W, ...) image."""
+    """Average the s² sub-pixel values of column-major ray data (n, ...) into (H, W, ...)."""
     s2 = supersample * supersample
     tail = values.shape[1:]
     per_pixel = values.reshape((width, height, s2) + tail).mean(axis=2)

@@ -1,4 +1,4 @@
-"""Render settings: a frozen, validated value object (change with :meth:`RenderSettings.replace`)."""
+"""Render settings: a frozen, validated value (change with :meth:`RenderSettings.replace`)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Spectra: Planck's law, CIE colour matching functions and the T ↦ XYZ tables the renderer samples."""
+"""Spectra: Planck's law, CIE colour matching functions and the T ↦ XYZ tables."""
 
 from incandescent.spectra.blackbody import blackbody_xyz
 from incandescent.spectra.cmf import ColourMatchingFunctions, cmfs

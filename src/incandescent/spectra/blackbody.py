@@ -43,7 +43,7 @@ def blackbody_xyz(
     --------
     >>> xyz = blackbody_xyz(2000.0)
     >>> f"{xyz[1]:.3e}"
-    '4.596e+05'
+    '4.638e+05'
     """
     temp = _validate.positive_temperature(temperature_K)
     flat = temp.reshape(-1)

@@ -50,7 +50,7 @@ def import_colour():
     return colour
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def cmfs(observer: str = "cie1931_2") -> ColourMatchingFunctions:
     """Colour matching functions of ``observer`` (``"cie1931_2"`` default, or ``"cie1964_10"``)."""
     _validate.choice(observer, "observer", tuple(OBSERVERS))
@@ -58,5 +58,7 @@ def cmfs(observer: str = "cie1931_2") -> ColourMatchingFunctions:
     wavelength = np.asarray(data.wavelengths, dtype=np.float64)
     values = np.asarray(data.values, dtype=np.float64)
     keep = (wavelength >= 360) & (wavelength <= 830)
+    wavelength, values = wavelength[keep], values[keep]  # boolean indexing copies: freeze after
     wavelength.setflags(write=False)
-    return ColourMatchingFunctions(observer, wavelength[keep], values[keep])
+    values.setflags(write=False)
+    return ColourMatchingFunctions(observer, wavelength, values)

@@ -6,8 +6,9 @@ For grey absorption κ the wavelength integral commutes with transport (Kirchhof
 Sampling. The table is uniform in *inverse* temperature w = 1/T. Blackbody XYZ behaves like
 exp(−a·w) at low T (Wien, a = c2/λ ≤ 3.8e4 K) and like 1/w at high T (Rayleigh–Jeans), and linear
 interpolation in w is accurate at both ends: the relative error is about (a·Δw)²/8 at low T and
-(Δw·T)²/4 at high T. The spacing is set so that (Δw·T_max)²/4 ≤ 1e-4, i.e. Δw ≤ 0.015 / T_max (a margin over 0.02),
-which gives about 1e-4 at most on [T_min, T_max] (measured in ``tests/test_lut.py``).
+(Δw·T)²/4 at high T. The spacing is set so that (Δw·T_max)²/4 ≤ 1e-4, i.e. Δw ≤ 0.02 / T_max;
+we use 0.015 / T_max for margin, which gives about 1e-4 at most on
+[T_min, T_max] (measured in ``tests/test_lut.py``).
 Below T_min the renderer emits nothing (at 250 K the visible luminance is ~1e-37 cd/m²); above
 T_max the table is extended when built for a volume (:func:`build_emission_lut` ``t_max_K``).
 """
@@ -67,9 +68,14 @@ class EmissionLUT:
         return np.where((temp >= self.t_min_K)[..., None], out, 0.0)
 
 
-def table_size(t_max_K: float) -> int:
-    """Entries needed for ≤ 1e-4 relative interpolation error up to ``t_max_K`` (see module doc)."""
-    return max(MIN_ENTRIES, int(np.ceil(t_max_K / (0.015 * T_MIN_K))) + 1)
+def table_size(t_max_K: float, t_min_K: float = T_MIN_K) -> int:
+    """Entries for ≤ 1e-4 relative interpolation error on [t_min_K, t_max_K] (see module doc).
+
+    The spacing Δw = 0.015 / t_max_K is fixed by the hot end, so the count grows with the
+    inverse-temperature span 1/t_min_K − 1/t_max_K.
+    """
+    span = 1.0 / t_min_K - 1.0 / t_max_K
+    return max(MIN_ENTRIES, int(np.ceil(span * t_max_K / 0.015)) + 1)
 
 
 def build_emission_lut(
@@ -83,7 +89,9 @@ def build_emission_lut(
     """
     t_max = max(_validate.positive_scalar(t_max_K, "t_max_K"), T_MAX_K)
     t_min = _validate.positive_scalar(t_min_K, "t_min_K")
-    n = table_size(t_max)
+    if t_min >= t_max:
+        raise ValueError(f"t_min_K must be < t_max_K = {t_max:g} K; got {t_min_K!r}")
+    n = table_size(t_max, t_min)
     w = np.linspace(1.0 / t_max, 1.0 / t_min, n)
     fn = xyz_of_temperature or blackbody_xyz
     values = np.asarray(fn(1.0 / w), dtype=np.float64)

@@ -43,9 +43,18 @@ def planck_radiance(
     5.311
     """
     c = planck_constants(constants)
-    lam_m = _validate.positive_temperature(wavelength_nm, "wavelength_nm") * NM_TO_M
+    lam_m = _positive_wavelength(wavelength_nm) * NM_TO_M
     temp = _validate.positive_temperature(temperature_K)
     return _planck_m(lam_m, temp, c) * NM_TO_M
+
+
+def _positive_wavelength(value: ArrayLike) -> NDArray[np.float64]:
+    """Validate wavelengths in nm: real, finite, > 0 (the error message says nm, not K)."""
+    arr = _validate.finite(_validate.real_array(value, "wavelength_nm"), "wavelength_nm")
+    bad = arr <= 0
+    if bad.any():
+        raise ValueError(f"wavelength_nm must be > 0 nm; got {_validate._first_bad(arr, bad)} nm")
+    return arr
 
 
 def _planck_m(lam_m: NDArray, temp_K: NDArray, c: PlanckConstants) -> NDArray[np.float64]:

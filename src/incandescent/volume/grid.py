@@ -28,7 +28,7 @@ DEFAULT_OPTICAL_DEPTH = 1.0
 
 @dataclass(frozen=True)
 class Remap:
-    """Map a raw field to kelvin: ``T = (raw − offset) · scale``; ``T < cutoff_K`` becomes vacuum."""
+    """Map a raw field to kelvin: ``T = (raw − offset)·scale``; T < ``cutoff_K`` is vacuum."""
 
     offset: float = 0.0
     scale: float = 1.0
@@ -98,7 +98,7 @@ class Volume:
         return float(self.temperature_K.max())
 
     def replace(self, **changes) -> Volume:
-        """A copy with ``changes`` applied (placement only; grids are re-validated by from_arrays)."""
+        """A copy with ``changes`` applied (e.g. placement)."""
         return replace(self, **changes)
 
     @classmethod
@@ -112,7 +112,7 @@ class Volume:
         remap: Remap | None = None,
         source: str = "temperature",
     ) -> Volume:
-        """Validate and place grids. ``source`` names where the data came from, for error messages."""
+        """Validate and place grids; ``source`` names the data's origin in error messages."""
         raw = _grid(temperature, f"{source}")
         temp = _remapped_temperature(raw, remap or Remap(), source)
         vacuum = temp < (remap or Remap()).cutoff_K

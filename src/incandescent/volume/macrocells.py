@@ -34,9 +34,7 @@ def _dilate_max(grid: NDArray) -> NDArray:
     """Maximum over each voxel's 3×3×3 neighbourhood (edges clamped)."""
     out = grid
     for axis in range(3):
-        padded = np.concatenate(
-            [np.take(out, [0], axis), out, np.take(out, [-1], axis)], axis=axis
-        )
+        padded = np.concatenate([np.take(out, [0], axis), out, np.take(out, [-1], axis)], axis=axis)
         n = out.shape[axis]
         lo, mid, hi = (np.take(padded, range(s, s + n), axis) for s in (0, 1, 2))
         out = np.maximum(np.maximum(lo, mid), hi)

@@ -33,7 +33,9 @@ def available_backends() -> list[str]:
 def resolve_backend(name: str | None = "auto") -> str:
     """Resolve "auto" / None / env to a concrete backend name; errors say what is missing."""
     requested = name if name not in (None, "auto") else os.environ.get(ENV_VAR, "auto")
-    source = f"environment {ENV_VAR}" if name in (None, "auto") and requested != "auto" else "backend"
+    source = (
+        f"environment {ENV_VAR}" if name in (None, "auto") and requested != "auto" else "backend"
+    )
     if requested == "auto":
         chosen = available_backends()[0]
         log.info("backend auto-selected: %s", chosen)

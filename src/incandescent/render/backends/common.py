@@ -1,9 +1,9 @@
 """What every backend shares: the march inputs and outputs and the per-step physics in float64.
 
-The step lattice (DESIGN.md §4): along a ray clipped to [t_enter, t_exit] (voxel units), segment k
-(k = 0, 1, ...) spans [t_enter + (k − 1 + j)·Δt, t_enter + (k + j)·Δt] clipped to the box, where j is
-the ray's jitter. Each segment is sampled at its midpoint and integrated exactly for constant κ, T
-(emission–absorption, Kirchhoff):
+The step lattice (DESIGN.md §4): along a ray clipped to [t_enter, t_exit] (voxel units),
+segment k (k = 0, 1, ...) spans [t_enter + (k − 1 + j)·Δt, t_enter + (k + j)·Δt] clipped to the box,
+where j is the ray's jitter. Each segment is sampled at its midpoint and integrated exactly for
+constant κ, T (emission–absorption, Kirchhoff):
 
     L += Tr · (1 − e^{−κΔs}) · s_e · B(T),   Tr ← Tr · e^{−κΔs}
 

@@ -48,7 +48,7 @@ def _point_drjit_at_newest_llvm() -> None:
         os.environ["DRJIT_LIBLLVM_PATH"] = candidates[-1]
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def drjit_module():
     """Import drjit once, after choosing a libLLVM."""
     _point_drjit_at_newest_llvm()
@@ -57,7 +57,7 @@ def drjit_module():
     return drjit
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def llvm_problem() -> str | None:
     """None if the LLVM backend is usable, else one sentence saying why not and what to install."""
     dr = drjit_module()
@@ -69,7 +69,7 @@ def llvm_problem() -> str | None:
     return None
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def cuda_problem() -> str | None:
     """None if the CUDA backend is usable, else why not."""
     dr = drjit_module()

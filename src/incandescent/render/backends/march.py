@@ -150,8 +150,12 @@ def _ray_arrays(m, rays):
     f32 = np.float32
     o = m.Array3f(*(m.Float(rays.origin[:, a].astype(f32)) for a in range(3)))
     d = m.Array3f(*(m.Float(rays.direction[:, a].astype(f32)) for a in range(3)))
-    return o, d, m.Float(rays.t_enter.astype(f32)), m.Float(rays.t_exit.astype(f32)), m.Float(
-        rays.jitter.astype(f32)
+    return (
+        o,
+        d,
+        m.Float(rays.t_enter.astype(f32)),
+        m.Float(rays.t_exit.astype(f32)),
+        m.Float(rays.jitter.astype(f32)),
     )
 
 
@@ -204,8 +208,13 @@ def march(inputs: MarchInputs, kind: str) -> MarchResult:
         compile_s = sum(_compile_seconds(h) for h in dr.kernel_history())
     xyz = np.stack([np.asarray(L[a], dtype=np.float64) for a in range(3)], axis=1)
     samples = int(np.asarray(n, dtype=np.uint64).sum())
-    return MarchResult(xyz, np.asarray(tr, dtype=np.float64), samples, max(wall - compile_s, 0.0),
-                       device_name(kind))
+    return MarchResult(
+        xyz,
+        np.asarray(tr, dtype=np.float64),
+        samples,
+        max(wall - compile_s, 0.0),
+        device_name(kind),
+    )
 
 
 def _compile_seconds(entry: dict) -> float:

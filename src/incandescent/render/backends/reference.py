@@ -37,7 +37,9 @@ def march(inputs: MarchInputs) -> MarchResult:
     active = np.arange(n)
     while active.size:
         r = active
-        a = np.maximum(rays.t_enter[r] + (k[r] - 1 + rays.jitter[r]) * s.step_voxels, rays.t_enter[r])
+        a = np.maximum(
+            rays.t_enter[r] + (k[r] - 1 + rays.jitter[r]) * s.step_voxels, rays.t_enter[r]
+        )
         b = np.minimum(rays.t_enter[r] + (k[r] + rays.jitter[r]) * s.step_voxels, rays.t_exit[r])
         p = rays.origin[r] + rays.direction[r] * (0.5 * (a + b))[:, None]
         samples += r.size
@@ -49,7 +51,7 @@ def march(inputs: MarchInputs) -> MarchResult:
 
 
 def _integrate_step(inputs, r, p, ds_m, xyz, transmittance) -> None:
-    """Exact emission–absorption over one segment of length ``ds_m`` (m) for rays ``r``, in place."""
+    """Exact emission–absorption over one segment of ``ds_m`` metres for rays ``r``, in place."""
     vol = inputs.volume
     kappa = trilinear(vol.absorption_per_m, p)
     temp = trilinear(vol.temperature_K, p)

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Set up incandescent from scratch: a .venv with the package and its dev tools, and — for the CPU
+# backend — a shared libLLVM >= 17 (Debian/Ubuntu: libllvm19; needs root or sudo) when missing.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+have_llvm() {
+    local f
+    for f in /usr/lib/*/libLLVM*.so* /usr/lib/llvm-*/lib/libLLVM*.so* /usr/lib64/libLLVM*.so*; do
+        [[ "$(basename "$f")" =~ LLVM-?([0-9]+) ]] && (( BASH_REMATCH[1] >= 17 )) && return 0
+    done
+    return 1
+}
+
+if ! have_llvm; then
+    if command -v apt-get >/dev/null; then
+        sudo=""; [ "$(id -u)" -eq 0 ] || sudo="sudo"
+        echo "setup: installing libllvm19 (Dr.Jit's CPU backend needs libLLVM >= 17)"
+        $sudo apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq libllvm19 >/dev/null
+    else
+        echo "setup: warning: no libLLVM >= 17 found; the cpu backend will not run" \
+             "(macOS: brew install llvm; see README)" >&2
+    fi
+fi
+
+python=${PYTHON:-python3}
+[ -x .venv/bin/python ] || "$python" -m venv .venv
+.venv/bin/python -m pip install -q --upgrade pip
+.venv/bin/python -m pip install -q -e ".[dev]"
+echo "setup: done (.venv/bin/incandescent)"

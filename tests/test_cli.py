@@ -1,0 +1,208 @@
+"""The command line end to end on tiny sizes: real files in, real EXR/PNG/JSON out."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+from typer.testing import CliRunner
+
+from incandescent.cli import app
+from incandescent.io.images import read_exr
+
+runner = CliRunner()
+
+
+def _run(*args: str):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+@pytest.fixture
+def npy(tmp_path):
+    temp = np.full((8, 8, 8), 300.0)
+    temp[2:6, 2:6, 2:6] = 2000.0
+    path = tmp_path / "hot.npy"
+    np.save(path, temp)
+    return path
+
+
+def test_render_npy_to_exr_with_stats(npy, tmp_path):
+    out, stats = tmp_path / "out.exr", tmp_path / "stats.json"
+    result = _run(
+        "render",
+        npy,
+        "-o",
+        out,
+        "--width",
+        16,
+        "--height",
+        12,
+        "--stats",
+        stats,
+        "--backend",
+        "cpu",
+    )
+    assert result.exit_code == 0, result.output
+    rgb, meta, extra = read_exr(out)
+    assert rgb.shape == (12, 16, 3) and rgb.max() > 0
+    assert meta["backend"] == "cpu" and meta["colour_space"] == "srgb"
+    assert "A" in extra and extra["A"].max() > 0
+    data = json.loads(stats.read_text())
+    assert data["backend"] == "cpu" and data["samples"] > 0 and data["seconds"] >= 0
+    assert "CPU" in data["device"] and data["absorption"].startswith("default")
+
+
+def test_render_npz_grids_png_and_flags(tmp_path):
+    temp = np.full((6, 6, 6), 1800.0)
+    path = tmp_path / "grids.npz"
+    np.savez(path, temperature=temp, absorption=np.full(temp.shape, 2.0))
+    out, stats = tmp_path / "out.png", tmp_path / "s.json"
+    result = _run(
+        "render",
+        path,
+        "-o",
+        out,
+        "--width",
+        10,
+        "--height",
+        8,
+        "--eye",
+        "0,0,3",
+        "--target",
+        "0,0,0",
+        "--fov",
+        30,
+        "--step",
+        0.25,
+        "--exposure",
+        -1,
+        "--voxel-size",
+        0.1,
+        "--stats",
+        stats,
+    )
+    assert result.exit_code == 0, result.output
+    assert Image.open(out).size == (10, 8)
+    assert json.loads(stats.read_text())["absorption"] == "grid"
+    stats.unlink()
+    result = _run(
+        "render",
+        path,
+        "-o",
+        tmp_path / "k.exr",
+        "--absorption",
+        0.5,
+        "--width",
+        4,
+        "--height",
+        4,
+        "--stats",
+        stats,
+        "--backend",
+        "reference",
+    )
+    assert result.exit_code == 0, result.output
+    assert json.loads(stats.read_text())["absorption"] == "constant 0.5 1/m"
+
+
+def test_render_refuses_to_overwrite_before_rendering(npy, tmp_path):
+    out = tmp_path / "out.png"
+    out.write_bytes(b"keep me")
+    result = _run("render", npy, "-o", out, "--width", 4, "--height", 4)
+    assert result.exit_code == 2
+    assert "exists; pass --overwrite" in result.output
+    assert out.read_bytes() == b"keep me"
+    assert _run("render", npy, "-o", out, "--width", 4, "--height", 4, "--overwrite").exit_code == 0
+    assert out.read_bytes() != b"keep me"
+
+
+@pytest.mark.parametrize(
+    ("setup", "args", "message"),
+    [
+        (
+            lambda d: (d / "bad.npy").write_bytes(b"not numpy"),
+            ["bad.npy"],
+            "bad.npy: not a readable",
+        ),
+        (
+            lambda d: np.savez(d / "x.npz", heat=np.ones((2, 2, 2))),
+            ["x.npz"],
+            "no grid named 'temperature'; the file has: heat",
+        ),
+        (lambda d: None, ["missing.npy"], "missing.npy: no such volume file"),
+        (
+            lambda d: np.save(d / "t.npy", np.ones((2, 2, 2))),
+            ["t.npy", "--eye", "1,2"],
+            "--eye must be three numbers",
+        ),
+        (
+            lambda d: np.save(d / "n.npy", np.full((2, 2, 2), np.nan)),
+            ["n.npy"],
+            "must be finite; got nan",
+        ),
+        (
+            lambda d: np.save(d / "t.npy", np.ones((2, 2, 2))),
+            ["t.npy", "--backend", "gpu"],
+            "unknown backend 'gpu'",
+        ),
+        (
+            lambda d: np.save(d / "t.npy", np.ones((2, 2, 2))),
+            ["t.npy", "--offset", 5],
+            "negative after remap",
+        ),
+    ],
+)
+def test_render_bad_input_is_one_clear_line(tmp_path, setup, args, message):
+    setup(tmp_path)
+    args = [tmp_path / args[0], *args[1:]]
+    result = _run("render", *args, "-o", tmp_path / "o.png", "--width", 4, "--height", 4)
+    assert result.exit_code == 2, result.output
+    assert message in " ".join(result.output.split())
+    assert "Traceback" not in result.output
+    assert not (tmp_path / "o.png").exists()
+
+
+def test_demo_renders_a_png(tmp_path):
+    out = tmp_path / "plume.png"
+    result = _run("demo", "plume", "--size", 24, "--width", 32, "--height", 24, "-o", out)
+    assert result.exit_code == 0, result.output
+    image = np.asarray(Image.open(out))
+    assert image.shape == (24, 32, 3) and image.max() > 100
+
+
+def test_demo_unknown_scene(tmp_path):
+    result = _run("demo", "volcano", "-o", tmp_path / "v.png")
+    assert result.exit_code == 2 and "unknown demo 'volcano'" in result.output
+
+
+def test_bench_json_reports_every_case():
+    result = _run("bench", "--json", "--size", 16, "--resolution", 16, "--repeat", 1)
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    scene_names = [s["scene"] for s in report["scenes"]]
+    assert scene_names == ["plume", "sparse"]
+    cases = {r["case"] for r in report["scenes"][0]["results"]}
+    assert {"cpu, all threads", "cpu, 1 thread", "reference (NumPy float64)"} <= cases
+    for r in report["scenes"][0]["results"]:
+        assert r["samples"] > 0 and r["ms_per_frame"] > 0 and r["samples_per_s"] > 0
+
+
+def test_help_documents_render_flags():
+    text = " ".join(_run("render", "--help").output.split())
+    for flag in (
+        "--width",
+        "--height",
+        "--step",
+        "--absorption",
+        "--voxel-size",
+        "--eye",
+        "--target",
+        "--fov",
+        "--backend",
+        "--exposure",
+        "--stats",
+        "--overwrite",
+    ):
+        assert flag in text
