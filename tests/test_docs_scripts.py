@@ -1,0 +1,63 @@
+"""The docs generators in scripts/ run end to end into a temporary folder."""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+SCRIPTS = Path(__file__).resolve().parent.parent / "scripts"
+
+
+def _load_script(name: str):
+    spec = importlib.util.spec_from_file_location(f"_script_{name}", SCRIPTS / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def blackbody_docs(tmp_path_factory) -> tuple[Path, Path]:
+    out = tmp_path_factory.mktemp("docs")
+    written = _load_script("blackbody_table").main(["--out", str(out)])
+    return out / "blackbody.md", out / "blackbody_strip.png", written
+
+
+def test_blackbody_table_writes_both_files(blackbody_docs):
+    md, png, written = blackbody_docs
+    assert written == [md, png]
+    assert md.is_file()
+    assert png.is_file()
+    assert not list(md.parent.glob(".*.tmp"))  # atomic writes leave no temporary files
+
+
+def test_blackbody_table_6500K_row(blackbody_docs):
+    text = blackbody_docs[0].read_text(encoding="utf-8")
+    row = re.search(r"^\| 6500 \| ([0-9.]+) \| ([0-9.]+) \|", text, flags=re.MULTILINE)
+    assert row is not None
+    np.testing.assert_allclose([float(row[1]), float(row[2])], [0.3135, 0.3236], atol=2e-3)
+
+
+def test_blackbody_table_rows_cover_range_and_mark_out_of_gamut(blackbody_docs):
+    text = blackbody_docs[0].read_text(encoding="utf-8")
+    temps = [int(t) for t in re.findall(r"^\| (\d+) \|", text, flags=re.MULTILINE)]
+    assert temps[0] == 800
+    assert temps[-1] == 12_000
+    assert temps == sorted(temps)
+    assert "| 800 |" in text and "† |" in text  # 800 K is outside sRGB (negative component)
+
+
+def test_blackbody_strip_image(blackbody_docs):
+    with Image.open(blackbody_docs[1]) as image:
+        assert image.mode == "RGB"
+        assert image.size == (1024, 96)
+        pixels = np.asarray(image)
+    chroma, absolute = pixels[20], pixels[60]
+    assert chroma.min(axis=-1).max() > 150  # fixed-brightness band is lit everywhere...
+    assert (chroma.max(axis=-1) > 100).all()
+    assert absolute[0].max() == 0  # ...the absolute band is black at 800 K
+    assert absolute[-1].min() > 150  # and bright at 12 000 K
