@@ -14,7 +14,7 @@ from incandescent.render.film import HDRImage, resolve_pixels
 from incandescent.render.rays import prepare_rays
 from incandescent.render.settings import RenderSettings
 from incandescent.spectra.lut import EmissionLUT, build_emission_lut
-from incandescent.volume import Volume, build_macrocells
+from incandescent.volume import Volume
 
 
 @functools.lru_cache(maxsize=16)
@@ -55,7 +55,7 @@ def render(
 def _march_inputs(volume, camera, settings, backend: str) -> MarchInputs:
     cells = None
     if settings.skip_empty and backend != "reference":
-        cells = build_macrocells(volume.absorption_per_m, settings.macrocell_voxels)
+        cells = volume.macrocells(settings.macrocell_voxels)
     rays = prepare_rays(camera, volume, settings)
     return MarchInputs(rays, volume, emission_lut(volume, settings), cells, settings)
 

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from incandescent import _validate
+from incandescent.volume.macrocells import MacrocellGrid, build_macrocells
 
 #: Voxels at or above this temperature absorb under the default absorption, K.
 DEFAULT_ABSORPTION_MIN_K = 500.0
@@ -68,6 +69,7 @@ class Volume:
     origin_m: tuple[float, float, float]
     voxel_size_m: float
     absorption_source: str = field(default="grid")
+    _cache: dict = field(default_factory=dict, repr=False)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -86,12 +88,15 @@ class Volume:
     @property
     def content_bounds_m(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """World box around the voxels that absorb (and so may emit); the whole box if none do."""
-        occupied = np.argwhere(self.absorption_per_m > 0)
-        if occupied.size == 0:
+        occupied = self.absorption_per_m > 0
+        plane = occupied.any(axis=2)
+        per_axis = [np.flatnonzero(m) for m in (plane.any(1), plane.any(0), occupied.any((0, 1)))]
+        if per_axis[0].size == 0:
             return self.bounds_m
-        lo = np.asarray(self.origin_m) + occupied.min(axis=0) * self.voxel_size_m
-        hi = np.asarray(self.origin_m) + (occupied.max(axis=0) + 1) * self.voxel_size_m
-        return lo, hi
+        lo = np.array([float(i[0]) for i in per_axis])
+        hi = np.array([float(i[-1] + 1) for i in per_axis])
+        origin = np.asarray(self.origin_m)
+        return origin + lo * self.voxel_size_m, origin + hi * self.voxel_size_m
 
     @property
     def max_temperature_K(self) -> float:
@@ -99,7 +104,14 @@ class Volume:
 
     def replace(self, **changes) -> Volume:
         """A copy with ``changes`` applied (e.g. placement)."""
-        return replace(self, **changes)
+        return replace(self, _cache={}, **changes)
+
+    def macrocells(self, cell_voxels: int = 8) -> MacrocellGrid:
+        """The macrocell grid of κ for empty-space skipping, computed once per cell size."""
+        key = ("macrocells", cell_voxels)
+        if key not in self._cache:
+            self._cache[key] = build_macrocells(self.absorption_per_m, cell_voxels)
+        return self._cache[key]
 
     @classmethod
     def from_arrays(

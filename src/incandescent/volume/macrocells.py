@@ -30,24 +30,29 @@ class MacrocellGrid:
         return float(np.mean(self.max_absorption == 0))
 
 
-def _dilate_max(grid: NDArray) -> NDArray:
-    """Maximum over each voxel's 3×3×3 neighbourhood (edges clamped)."""
-    out = grid
-    for axis in range(3):
-        padded = np.concatenate([np.take(out, [0], axis), out, np.take(out, [-1], axis)], axis=axis)
-        n = out.shape[axis]
-        lo, mid, hi = (np.take(padded, range(s, s + n), axis) for s in (0, 1, 2))
-        out = np.maximum(np.maximum(lo, mid), hi)
-    return out
+def _extended_block_max(grid: NDArray, axis: int, s: int) -> NDArray:
+    """Along ``axis``, cell c gets the maximum over voxels c·s − 1 … (c+1)·s (clamped to the grid).
+
+    Applied to each axis in turn this is the maximum over each cell's box plus a one-voxel border,
+    because a maximum over a box is separable.
+    """
+    g = np.moveaxis(grid, axis, 0)
+    n = g.shape[0]
+    cells = -(-n // s)
+    padded = np.zeros((cells * s,) + g.shape[1:], dtype=g.dtype)
+    padded[:n] = g
+    out = padded.reshape((cells, s) + g.shape[1:]).max(axis=1)
+    after = np.arange(1, cells) * s  # first voxel of the next cell
+    out[:-1] = np.maximum(out[:-1], g[after])
+    out[1:] = np.maximum(out[1:], g[after - 1])  # last voxel of the previous cell
+    return np.moveaxis(out, 0, axis)
 
 
 def build_macrocells(absorption_per_m: NDArray, cell_voxels: int = 8) -> MacrocellGrid:
-    """Block maxima of the border-dilated absorption grid, cells of ``cell_voxels``³ voxels."""
+    """Per-cell maxima of κ over cells of ``cell_voxels``³ voxels plus a one-voxel border."""
     if not isinstance(cell_voxels, (int, np.integer)) or not 1 <= cell_voxels <= 64:
         raise ValueError(f"macrocell size must be an integer in 1..64 voxels; got {cell_voxels!r}")
-    dilated = _dilate_max(np.asarray(absorption_per_m, dtype=np.float32))
-    cells = [-(-n // cell_voxels) for n in dilated.shape]
-    padded = np.zeros([c * cell_voxels for c in cells], dtype=np.float32)
-    padded[tuple(slice(0, n) for n in dilated.shape)] = dilated
-    blocks = padded.reshape(cells[0], cell_voxels, cells[1], cell_voxels, cells[2], cell_voxels)
-    return MacrocellGrid(np.ascontiguousarray(blocks.max(axis=(1, 3, 5))), int(cell_voxels))
+    out = np.asarray(absorption_per_m, dtype=np.float32)
+    for axis in range(3):
+        out = _extended_block_max(out, axis, int(cell_voxels))
+    return MacrocellGrid(np.ascontiguousarray(out), int(cell_voxels))

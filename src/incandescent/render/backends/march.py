@@ -16,6 +16,7 @@ Outputs are the loop's own state variables (XYZ, transmittance, sample count): n
 from __future__ import annotations
 
 import time
+import weakref
 
 import numpy as np
 
@@ -32,10 +33,7 @@ class _Kernel:
         self.shape = vol.shape
         nx, ny, nz = (n + 2 for n in vol.shape)
         self.strides = (ny * nz, nz, 1)
-        self.kappa = m.Float(_padded(vol.absorption_per_m))
-        self.temp = m.Float(_padded(vol.temperature_K))
-        scale = vol.emission_scale
-        self.scale = None if scale is None else m.Float(_padded(scale))
+        self.medium, self.scale = _device_grids(m, vol)
         self.lut = m.Float(lut.values.astype(np.float32).ravel())
         self.lut_size, self.lut_t_min = lut.size, np.float32(lut.t_min_K)
         self.lut_w_min, self.lut_inv_dw = np.float32(lut.w_min), np.float32(lut.inv_dw)
@@ -64,14 +62,16 @@ class _Kernel:
             weights.append(u - m.Float(i0))
         return index, weights
 
-    def trilinear(self, grid, c):
-        dr, Float = self.dr, self.m.Float
+    def trilinear(self, grid, c, kind=None):
+        """Trilinear sample of a padded grid of ``kind`` values per voxel (Float or Array2f)."""
+        dr = self.dr
+        kind = kind or self.m.Float
         base, (fx, fy, fz) = c
         sx, sy, sz = self.strides
 
         def lerp_x(offset):
-            a = dr.gather(Float, grid, base + offset)
-            return dr.fma(dr.gather(Float, grid, base + (offset + sx)) - a, fx, a)
+            a = dr.gather(kind, grid, base + offset)
+            return dr.fma(dr.gather(kind, grid, base + (offset + sx)) - a, fx, a)
 
         c0 = dr.lerp(lerp_x(0), lerp_x(sy), fy)
         c1 = dr.lerp(lerp_x(sz), lerp_x(sy + sz), fy)
@@ -89,10 +89,10 @@ class _Kernel:
         return dr.select(temp >= self.lut_t_min, xyz, 0.0)
 
     # --- one segment ----------------------------------------------------------------------
-    def integrate(self, tr, L, kappa, c, ds_m):
+    def integrate(self, tr, L, kappa, temp, c, ds_m):
         """Exact emission–absorption over one segment (Kirchhoff, DESIGN.md §3)."""
         dr = self.dr
-        xyz = self.emission(self.trilinear(self.temp, c))
+        xyz = self.emission(temp)
         if self.scale is not None:
             xyz = xyz * self.trilinear(self.scale, c)
         x = kappa * ds_m
@@ -103,12 +103,12 @@ class _Kernel:
     def sample(self, k, tr, L, n, p, ds_m):
         dr = self.dr
         c = self.corners(p)
-        kappa = self.trilinear(self.kappa, c)
+        kappa, temp = self.trilinear(self.medium, c, self.m.Array2f)
         tr, L = dr.if_stmt(
-            (tr, L, kappa, c, ds_m),
+            (tr, L, kappa, temp, c, ds_m),
             kappa > 0.0,
             self.integrate,
-            lambda tr, L, kappa, c, ds_m: (tr, L),
+            lambda tr, L, kappa, temp, c, ds_m: (tr, L),
         )
         return k + 1.0, tr, L, n + 1
 
@@ -144,6 +144,26 @@ class _Kernel:
 def _padded(grid: np.ndarray) -> np.ndarray:
     """The grid with one edge-replicated voxel on every side, flattened (C order)."""
     return np.pad(grid, 1, mode="edge").ravel()
+
+
+#: Device copies of each live volume's padded grids, per array module (freed with the volume).
+_DEVICE_GRIDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _device_grids(m, volume):
+    """((κ, T) interleaved, emission scale or None) as padded device arrays, uploaded once.
+
+    κ and T of a voxel share a cache line, so the second lookup is nearly free.
+    """
+    per_volume = _DEVICE_GRIDS.setdefault(volume, {})
+    if m.__name__ not in per_volume:
+        scale = volume.emission_scale
+        medium = np.stack([volume.absorption_per_m, volume.temperature_K], axis=-1)
+        per_volume[m.__name__] = (
+            m.Float(np.pad(medium, ((1, 1), (1, 1), (1, 1), (0, 0)), mode="edge").ravel()),
+            None if scale is None else m.Float(_padded(scale)),
+        )
+    return per_volume[m.__name__]
 
 
 def _ray_arrays(m, rays):
