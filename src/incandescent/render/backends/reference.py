@@ -54,6 +54,10 @@ def _integrate_step(inputs, r, p, ds_m, xyz, transmittance) -> None:
     """Exact emission–absorption over one segment of ``ds_m`` metres for rays ``r``, in place."""
     vol = inputs.volume
     kappa = trilinear(vol.absorption_per_m, p)
+    absorbing = kappa > 0  # where κ = 0 nothing is emitted (Kirchhoff): skip the spectral integral
+    if not absorbing.any():
+        return
+    r, p, kappa, ds_m = r[absorbing], p[absorbing], kappa[absorbing], ds_m[absorbing]
     temp = trilinear(vol.temperature_K, p)
     scale = 1.0 if vol.emission_scale is None else trilinear(vol.emission_scale, p)
     optical_depth = kappa * ds_m
