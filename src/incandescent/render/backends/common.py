@@ -68,9 +68,11 @@ def trilinear(grid: NDArray, p: NDArray) -> NDArray[np.float64]:
     (x0, x1, fx), (y0, y1, fy), (z0, z1, fz) = (
         trilinear_setup(p[:, a], grid.shape[a]) for a in range(3)
     )
-    g = grid.astype(np.float64, copy=False)
-    c00 = g[x0, y0, z0] * (1 - fx) + g[x1, y0, z0] * fx
-    c10 = g[x0, y1, z0] * (1 - fx) + g[x1, y1, z0] * fx
-    c01 = g[x0, y0, z1] * (1 - fx) + g[x1, y0, z1] * fx
-    c11 = g[x0, y1, z1] * (1 - fx) + g[x1, y1, z1] * fx
+    def g(x, y, z):
+        return grid[x, y, z].astype(np.float64)  # float32 voxels widen exactly
+
+    c00 = g(x0, y0, z0) * (1 - fx) + g(x1, y0, z0) * fx
+    c10 = g(x0, y1, z0) * (1 - fx) + g(x1, y1, z0) * fx
+    c01 = g(x0, y0, z1) * (1 - fx) + g(x1, y0, z1) * fx
+    c11 = g(x0, y1, z1) * (1 - fx) + g(x1, y1, z1) * fx
     return (c00 * (1 - fy) + c10 * fy) * (1 - fz) + (c01 * (1 - fy) + c11 * fy) * fz
