@@ -101,3 +101,43 @@ def test_cuda_unavailable_is_a_clear_error():
     with pytest.raises(BackendUnavailable, match="backend 'cuda' is unavailable: no NVIDIA GPU"):
         resolve_backend("cuda")
     assert "cuda" not in available_backends()
+
+
+class _FakeDrJit:
+    """Stands in for drjit to exercise the libLLVM checks without the real library state."""
+
+    class JitBackend:
+        LLVM, CUDA = "llvm", "cuda"
+
+    def __init__(self, has_llvm: bool, version=(19, 1, 7)):
+        self._has_llvm, self._version = has_llvm, version
+
+        class detail:  # noqa: N801 - mirrors drjit.detail
+            @staticmethod
+            def llvm_version():
+                return version
+
+        self.detail = detail
+
+    def has_backend(self, backend):
+        return self._has_llvm if backend == "llvm" else False
+
+
+@pytest.mark.parametrize(
+    ("fake", "expected"),
+    [
+        (_FakeDrJit(False), "Dr.Jit found no libLLVM; the CPU backend needs a shared libLLVM"),
+        (_FakeDrJit(True, (15, 0, 6)), "Dr.Jit loaded libLLVM 15.0.6; the CPU backend needs"),
+        (_FakeDrJit(True, (19, 1, 7)), None),
+    ],
+)
+def test_llvm_check_names_what_to_install(monkeypatch, fake, expected):
+    from incandescent.render.backends import jit
+
+    monkeypatch.setattr(jit, "drjit_module", lambda: fake)
+    problem = jit.llvm_problem.__wrapped__()
+    if expected is None:
+        assert problem is None
+    else:
+        assert problem.startswith(expected)
+        assert "apt-get install libllvm19" in problem and "brew install llvm" in problem

@@ -5,12 +5,17 @@ from __future__ import annotations
 import json
 import logging
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import typer
 from rich.console import Console
 
 from incandescent import __version__
+
+if TYPE_CHECKING:
+    from incandescent.volume import Volume
 
 app = typer.Typer(
     help="Physically based volumetric rendering of incandescent gas (flames, explosions, plumes).",
@@ -179,7 +184,11 @@ def demo(
     """Render a built-in demo scene (no input files needed)."""
     from incandescent import api, scenes
 
-    makers = {"plume": scenes.plume, "sparse": scenes.sparse_flame, "sphere": scenes.soot_sphere}
+    makers: dict[str, Callable[[int], Volume]] = {
+        "plume": scenes.plume,
+        "sparse": scenes.sparse_flame,
+        "sphere": scenes.soot_sphere,
+    }
     if name not in makers:
         raise _fail(f"unknown demo {name!r}; expected one of: {', '.join(DEMOS)}")
     output = output or Path(f"{name}.png")

@@ -63,7 +63,7 @@ class Camera:
         forward = forward / distance
         right = np.cross(forward, self.up)
         norm = np.linalg.norm(right)
-        if norm < 1e-9 * max(np.linalg.norm(self.up), 1e-300):
+        if norm < 1e-9 * max(float(np.linalg.norm(self.up)), 1e-300):
             raise ValueError(
                 f"camera up {self.up} is parallel to the view direction {tuple(forward.round(6))} "
                 "(or zero); choose an up vector not along eye→target"

@@ -45,7 +45,11 @@ def save_image(
 def write_json(path: str | Path, data: dict, overwrite: bool = False) -> Path:
     """Write ``data`` as JSON atomically."""
     text = json.dumps(data, indent=2, sort_keys=True, default=_jsonable)
-    return atomic_write(Path(path), lambda tmp: tmp.write_text(text + "\n"), overwrite=overwrite)
+
+    def write(tmp: Path) -> None:
+        tmp.write_text(text + "\n")
+
+    return atomic_write(Path(path), write, overwrite=overwrite)
 
 
 def _jsonable(value):

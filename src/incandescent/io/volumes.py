@@ -62,5 +62,6 @@ def load_grids(path: str | Path, temperature_grid: str = "temperature") -> Loade
         return LoadedGrids(path, data)
     with data:
         temperature = _npz_grid(data, path, temperature_grid, required=True)
+        assert temperature is not None  # required=True raised otherwise
         optional = {name: _npz_grid(data, path, name, required=False) for name in OPTIONAL_GRIDS}
     return LoadedGrids(path, temperature, **optional)

@@ -65,7 +65,7 @@ def lowbias32(x: NDArray) -> NDArray[np.uint32]:
 
 def jitter(ray_index: NDArray, seed: int) -> NDArray[np.float64]:
     """Per-ray offset in [0, 1), reproducible from (ray index, seed); exact in float32."""
-    key = lowbias32((seed + 0x9E3779B9) & 0xFFFFFFFF)[0]
+    key = lowbias32(np.array([(seed + 0x9E3779B9) & 0xFFFFFFFF]))[0]
     h = lowbias32(np.asarray(ray_index, dtype=np.uint32) ^ key)
     return (h >> np.uint32(8)).astype(np.float64) * 2.0**-24
 

@@ -88,9 +88,10 @@ class Volume:
     @property
     def content_bounds_m(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """World box around the voxels that absorb (and so may emit); the whole box if none do."""
-        occupied = self.absorption_per_m > 0
-        plane = occupied.any(axis=2)
-        per_axis = [np.flatnonzero(m) for m in (plane.any(1), plane.any(0), occupied.any((0, 1)))]
+        occupied = np.asarray(self.absorption_per_m > 0)
+        plane = np.any(occupied, axis=2)
+        projections = (np.any(plane, axis=1), np.any(plane, axis=0), np.any(occupied, axis=(0, 1)))
+        per_axis = [np.flatnonzero(m) for m in projections]
         if per_axis[0].size == 0:
             return self.bounds_m
         lo = np.array([float(i[0]) for i in per_axis])
@@ -182,8 +183,9 @@ def _absorption(value, temp: NDArray, voxel: float, source: str) -> tuple[NDArra
     if np.ndim(value) == 0:
         kappa = _nonnegative_scalar(value, "absorption (1/m)")
         return np.full(temp.shape, kappa), f"constant {kappa:g} 1/m"
-    grid = _optional_grid(value, temp.shape, "absorption", source)
-    return grid.astype(np.float64), "grid"
+    given = _optional_grid(value, temp.shape, "absorption", source)
+    assert given is not None  # value is not None here
+    return given.astype(np.float64), "grid"
 
 
 def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] | None:

@@ -68,6 +68,7 @@ def trilinear(grid: NDArray, p: NDArray) -> NDArray[np.float64]:
     (x0, x1, fx), (y0, y1, fy), (z0, z1, fz) = (
         trilinear_setup(p[:, a], grid.shape[a]) for a in range(3)
     )
+
     def g(x, y, z):
         return grid[x, y, z].astype(np.float64)  # float32 voxels widen exactly
 

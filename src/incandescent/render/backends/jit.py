@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import glob
+import importlib
 import os
 import re
 
@@ -84,11 +85,7 @@ def array_module(kind: str):
     if problem:
         raise BackendUnavailable(f"backend {kind!r} is unavailable: {problem}")
     drjit_module()
-    if kind == "cpu":
-        import drjit.llvm as module
-    else:
-        import drjit.cuda as module
-    return module
+    return importlib.import_module("drjit.llvm" if kind == "cpu" else "drjit.cuda")
 
 
 def device_name(kind: str) -> str:
