@@ -45,6 +45,7 @@ def load_volume(
         voxel_size_m,
         remap=remap,
         source=str(grids.path),
+        sodium_fraction=grids.sodium_fraction,
     )
 
 

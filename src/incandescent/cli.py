@@ -96,6 +96,12 @@ def render(
     ),
     tonemap: str = typer.Option("filmic", help="PNG tone map: clip | reinhard | filmic."),
     space: str = typer.Option("srgb", help="RGB space: srgb | rec2020 | display_p3 | acescg."),
+    brightness: str = typer.Option(
+        "physical",
+        help="physical (absolute Planck, emission–absorption) | paper (the 2011 method).",
+    ),
+    sodium: float = typer.Option(None, help="Paper mode: constant sodium fraction 0..1."),
+    paper_exponent: float = typer.Option(1.5, help="Paper mode: brightness ∝ T^exponent."),
     stats: Path = typer.Option(None, help="Write render statistics (JSON) to this file."),
     overwrite: bool = typer.Option(False, help="Replace existing output files."),
 ) -> None:
@@ -118,7 +124,11 @@ def render(
             supersample=supersample,
             seed=seed,
             space=space,
+            brightness=brightness,
+            paper_exponent=paper_exponent,
         )
+        if sodium is not None:
+            grids = grids.with_sodium(sodium)
         display = api.DisplaySettings(
             space=space, exposure_ev=exposure, auto_exposure=auto_exposure, tonemap=tonemap
         )

@@ -36,10 +36,19 @@ def save_image(
             path, image.rgb(), meta, overwrite=overwrite, extra_channels={"A": image.alpha}
         )
     if suffix == ".png":
-        display = display or DisplaySettings(space=image.space)
-        pixels = to_display(image.xyz, display, hottest_K=image.metadata.get("max_temperature_K"))
-        return write_png(path, pixels, overwrite=overwrite, metadata=_metadata(image))
+        return write_png(
+            path, display_pixels(image, display), overwrite=overwrite, metadata=_metadata(image)
+        )
     raise ValueError(f"{path}: unsupported image format {path.suffix!r}; expected .exr or .png")
+
+
+def display_pixels(image: HDRImage, display: DisplaySettings | None = None) -> np.ndarray:
+    """8/16-bit display RGB: the display pipeline, or — for paper-mode images, whose values are
+    already the paper's display values capped at 255 — those values as they are (8-bit)."""
+    if image.metadata.get("brightness") == "paper":
+        return np.round(np.clip(image.rgb("srgb"), 0.0, 255.0)).astype(np.uint8)
+    display = display or DisplaySettings(space=image.space)
+    return to_display(image.xyz, display, hottest_K=image.metadata.get("max_temperature_K"))
 
 
 def write_json(path: str | Path, data: dict, overwrite: bool = False) -> Path:

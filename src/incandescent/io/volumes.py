@@ -1,7 +1,8 @@
 """Loading volume grids from files: ``.npy`` (a temperature grid) and ``.npz`` (named grids).
 
 ``.npz`` grid names: ``temperature`` (required unless another name is chosen), and optionally
-``absorption`` (1/m) and ``emission_scale``. Arrays are read with ``allow_pickle=False``. Axis order
+``absorption`` (1/m), ``emission_scale`` and ``sodium_fraction`` (0..1, paper mode).
+Arrays are read with ``allow_pickle=False``. Axis order
 is x, y, z (``a[i, j, k]`` is the voxel at x=i, y=j, z=k).
 """
 
@@ -15,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 SUFFIXES = (".npy", ".npz")
-OPTIONAL_GRIDS = ("absorption", "emission_scale")
+OPTIONAL_GRIDS = ("absorption", "emission_scale", "sodium_fraction")
 
 
 @dataclass(frozen=True)
@@ -26,6 +27,7 @@ class LoadedGrids:
     temperature: NDArray
     absorption: NDArray | None = None
     emission_scale: NDArray | None = None
+    sodium_fraction: NDArray | None = None
 
 
 def _read(path: Path):

@@ -9,6 +9,7 @@ import numpy as np
 
 from incandescent import __version__
 from incandescent.camera import Camera, default_camera
+from incandescent.colorimetry import rgb_to_xyz
 from incandescent.render.backends import MarchInputs, resolve_backend, run_march
 from incandescent.render.film import HDRImage, resolve_pixels
 from incandescent.render.rays import prepare_rays
@@ -18,18 +19,29 @@ from incandescent.volume import Volume
 
 
 @functools.lru_cache(maxsize=16)
-def _cached_lut(t_max_K: float, observer: str, constants: str) -> EmissionLUT:
-    from incandescent.spectra.blackbody import blackbody_xyz
+def _cached_lut(t_max_K: float, kind: str, observer: str, constants: str) -> EmissionLUT:
+    """Tables of ``kind``: "blackbody" XYZ, or the paper's 19-sample sums ("paper") and 590 nm
+    term ("sodium")."""
+    if kind == "paper":
+        from incandescent.paper.colour import paper_spectrum_xyz as fn
+    elif kind == "sodium":
+        from incandescent.paper.colour import paper_sodium_xyz as fn
+    else:
+        from incandescent.spectra.blackbody import blackbody_xyz
 
-    return build_emission_lut(t_max_K, lambda t: blackbody_xyz(t, observer, constants))
+        return build_emission_lut(t_max_K, lambda t: blackbody_xyz(t, observer, constants))
+    return build_emission_lut(t_max_K, fn)
 
 
-def emission_lut(volume: Volume, settings: RenderSettings) -> EmissionLUT:
-    """The T ↦ XYZ table for this volume's temperature range (cached by range and physics)."""
+def _lut_t_max(volume: Volume) -> float:
     t_max = max(1e5, float(np.nextafter(np.float32(volume.max_temperature_K), np.inf)) * 1.001)
-    return _cached_lut(
-        round(t_max, -2) if t_max > 1e5 else 1e5, settings.observer, settings.constants
-    )
+    return float(np.ceil(t_max / 100.0) * 100.0) if t_max > 1e5 else 1e5
+
+
+def emission_lut(volume: Volume, settings: RenderSettings, kind: str | None = None) -> EmissionLUT:
+    """The T ↦ XYZ table for this volume's temperature range (cached by range and physics)."""
+    kind = kind or ("paper" if settings.brightness == "paper" else "blackbody")
+    return _cached_lut(_lut_t_max(volume), kind, settings.observer, settings.constants)
 
 
 def render(
@@ -53,11 +65,17 @@ def render(
 
 
 def _march_inputs(volume, camera, settings, backend: str) -> MarchInputs:
+    paper = settings.brightness == "paper"
     cells = None
     if settings.skip_empty and backend != "reference":
-        cells = volume.macrocells(settings.macrocell_voxels)
+        cells = volume.macrocells(
+            settings.macrocell_voxels, settings.paper_min_K if paper else None
+        )
     rays = prepare_rays(camera, volume, settings)
-    return MarchInputs(rays, volume, emission_lut(volume, settings), cells, settings)
+    sodium = None
+    if paper and volume.sodium_fraction is not None:
+        sodium = emission_lut(volume, settings, "sodium")
+    return MarchInputs(rays, volume, emission_lut(volume, settings), cells, settings, sodium)
 
 
 def _scatter_rays(values: np.ndarray, inputs: MarchInputs, fill: float) -> np.ndarray:
@@ -69,7 +87,10 @@ def _scatter_rays(values: np.ndarray, inputs: MarchInputs, fill: float) -> np.nd
 
 
 def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRImage:
-    xyz = _scatter_rays(result.xyz, inputs, 0.0).astype(np.float32)
+    values = _scatter_rays(result.xyz, inputs, 0.0)
+    if inputs.settings.brightness == "paper":  # the paper's RGB sums, capped at 255
+        values = rgb_to_xyz(np.minimum(values, 255.0), "srgb")
+    xyz = values.astype(np.float32)
     tr = _scatter_rays(result.transmittance, inputs, 1.0).astype(np.float32)
     s = inputs.settings
     metadata = {

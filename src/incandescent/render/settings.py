@@ -4,9 +4,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from incandescent import _validate
 
-BRIGHTNESS_LAWS = ("physical",)
+BRIGHTNESS_LAWS = ("physical", "paper")
+#: Default paper-mode gain per voxel of path: 32 voxels of 3000 K gas sum to 255 (our choice; the
+#: paper does not give its scale).
+PAPER_GAIN = 255.0 / (32.0 * 3000.0**1.5)
+#: Default paper-mode threshold: samples below it do not contribute (the paper mentions a threshold
+#: without its value; 800 K is about the Draper point, where a visible glow begins).
+PAPER_MIN_K = 800.0
 
 
 def _positive_int(value: int, name: str, maximum: int = 1 << 15) -> None:
@@ -31,7 +39,10 @@ class RenderSettings:
     space: RGB space of the output image (see incandescent.colorimetry).
     observer: CIE observer, "cie1931_2" or "cie1964_10".
     constants: Planck constant set ("codata2018", "cie", "paper").
-    brightness: brightness law; "physical" is absolute Planck radiance.
+    brightness: "physical" (absolute Planck radiance, emission–absorption) or "paper" (the 2011
+        method: normalised chromaticity × T^paper_exponent summed along the ray, capped at 255).
+    paper_exponent, paper_gain, paper_min_K: paper mode's brightness exponent (1.5), gain per
+        voxel of path, and temperature below which a sample does not contribute.
     """
 
     width: int = 512
@@ -47,6 +58,9 @@ class RenderSettings:
     observer: str = "cie1931_2"
     constants: str = "codata2018"
     brightness: str = "physical"
+    paper_exponent: float = 1.5
+    paper_gain: float = PAPER_GAIN
+    paper_min_K: float = PAPER_MIN_K
 
     def __post_init__(self) -> None:
         _positive_int(self.width, "width")
@@ -61,6 +75,11 @@ class RenderSettings:
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"seed must be a non-negative integer; got {self.seed!r}")
         _validate.choice(self.brightness, "brightness law", BRIGHTNESS_LAWS)
+        _validate.positive_scalar(self.paper_gain, "paper_gain")
+        _validate.positive_scalar(self.paper_min_K, "paper_min_K")
+        exponent = float(self.paper_exponent)
+        if not np.isfinite(exponent) or not 0 <= exponent <= 8:
+            raise ValueError(f"paper_exponent must be in [0, 8]; got {self.paper_exponent!r}")
 
     def replace(self, **changes) -> RenderSettings:
         return replace(self, **changes)

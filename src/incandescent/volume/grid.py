@@ -58,6 +58,7 @@ class Volume:
     temperature_K: (nx, ny, nz) float32, kelvin; 0 in vacuum voxels.
     absorption_per_m: (nx, ny, nz) float32 κ in 1/m (already 0 where T < cutoff).
     emission_scale: (nx, ny, nz) float32 or None — a non-physical multiplier of emission only.
+    sodium_fraction: (nx, ny, nz) float32 in [0, 1] or None — the paper's per-voxel sodium term.
     origin_m: world position of the corner of voxel (0, 0, 0), m.
     voxel_size_m: side of a voxel, m.
     absorption_source: how κ was given ("grid", "constant 2.0 1/m", or the default's description).
@@ -69,6 +70,7 @@ class Volume:
     origin_m: tuple[float, float, float]
     voxel_size_m: float
     absorption_source: str = field(default="grid")
+    sodium_fraction: NDArray[np.float32] | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -107,11 +109,23 @@ class Volume:
         """A copy with ``changes`` applied (e.g. placement)."""
         return replace(self, _cache={}, **changes)
 
-    def macrocells(self, cell_voxels: int = 8) -> MacrocellGrid:
-        """The macrocell grid of κ for empty-space skipping, computed once per cell size."""
-        key = ("macrocells", cell_voxels)
+    def with_sodium(self, sodium_fraction: ArrayLike | float) -> Volume:
+        """A copy with a sodium fraction (0..1, constant or grid) for the paper's sodium term."""
+        return self.replace(sodium_fraction=_sodium_grid(sodium_fraction, self.shape, "volume"))
+
+    def macrocells(self, cell_voxels: int = 8, paper_min_K: float | None = None) -> MacrocellGrid:
+        """Macrocells for empty-space skipping, computed once per cell size and mode.
+
+        Physical mode: maximum κ (a cell is empty where nothing absorbs, so nothing emits).
+        Paper mode (``paper_min_K`` given): 1 where T ≥ paper_min_K (the paper ignores absorption).
+        """
+        key = ("macrocells", cell_voxels, paper_min_K)
         if key not in self._cache:
-            self._cache[key] = build_macrocells(self.absorption_per_m, cell_voxels)
+            if paper_min_K is None:
+                grid = self.absorption_per_m
+            else:
+                grid = (self.temperature_K >= np.float32(paper_min_K)).astype(np.float32)
+            self._cache[key] = build_macrocells(grid, cell_voxels)
         return self._cache[key]
 
     @classmethod
@@ -124,6 +138,7 @@ class Volume:
         origin_m: ArrayLike | None = None,
         remap: Remap | None = None,
         source: str = "temperature",
+        sodium_fraction: ArrayLike | float | None = None,
     ) -> Volume:
         """Validate and place grids; ``source`` names the data's origin in error messages."""
         raw = _grid(temperature, f"{source}")
@@ -135,7 +150,8 @@ class Volume:
         kappa[vacuum] = 0.0
         scale = _optional_grid(emission_scale, temp.shape, "emission_scale", source)
         origin = _origin(origin_m, temp.shape, voxel)
-        return cls(_f32(temp), _f32(kappa), scale, origin, voxel, how)
+        sodium = _sodium_grid(sodium_fraction, temp.shape, source)
+        return cls(_f32(temp), _f32(kappa), scale, origin, voxel, how, sodium)
 
 
 def _grid(value: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -202,6 +218,17 @@ def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] 
         index = tuple(int(i) for i in np.argwhere(grid < 0)[0])
         raise ValueError(f"{source}: {name} must be >= 0; got {grid[index]:g} at voxel {index}")
     return _f32(grid)
+
+
+def _sodium_grid(value, shape, source: str) -> NDArray[np.float32] | None:
+    """A sodium-fraction grid in [0, 1] (constant or grid), or None."""
+    sodium = _optional_grid(value, shape, "sodium_fraction", source)
+    if sodium is not None and sodium.max() > 1.0:
+        index = tuple(int(i) for i in np.argwhere(sodium > 1.0)[0])
+        raise ValueError(
+            f"{source}: sodium_fraction must be in [0, 1]; got {sodium[index]:g} at voxel {index}"
+        )
+    return sodium
 
 
 def _nonnegative_scalar(value, name: str) -> float:

@@ -36,14 +36,16 @@ class MarchInputs:
     lut: EmissionLUT
     macrocells: MacrocellGrid | None
     settings: RenderSettings
+    sodium_lut: EmissionLUT | None = None  # paper mode with a sodium grid: the 590 nm term
 
 
 @dataclass(frozen=True)
 class MarchResult:
     """Per-ray results for the rays in the batch, plus counters.
 
-    xyz: (n, 3) emitted XYZ; transmittance: (n,); samples: trilinear lookups taken;
-    seconds: march wall time (no start-up, no kernel compilation); device: what ran it.
+    xyz: (n, 3) emitted XYZ (paper mode: the paper's uncapped RGB sums); transmittance: (n,);
+    samples: trilinear lookups taken; seconds: march wall time (no start-up, no kernel
+    compilation); device: what ran it.
     """
 
     xyz: NDArray

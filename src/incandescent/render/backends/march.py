@@ -33,8 +33,11 @@ class _Kernel:
         self.shape = vol.shape
         nx, ny, nz = (n + 2 for n in vol.shape)
         self.strides = (ny * nz, nz, 1)
-        self.medium, self.scale = _device_grids(m, vol)
+        self.medium, self.scale, self.sodium = _device_grids(m, vol)
         self.lut = m.Float(lut.values.astype(np.float32).ravel())
+        self.paper = s.brightness == "paper"
+        if self.paper:
+            self._init_paper(m, inputs)
         self.lut_size, self.lut_t_min = lut.size, np.float32(lut.t_min_K)
         self.lut_w_min, self.lut_inv_dw = np.float32(lut.w_min), np.float32(lut.inv_dw)
         self.ds_per_voxel = np.float32(vol.voxel_size_m)
@@ -44,6 +47,19 @@ class _Kernel:
         self.cells = None if cells is None else m.Float(cells.max_absorption.ravel())
         self.cell_shape = None if cells is None else cells.shape
         self.cell_voxels = None if cells is None else np.float32(cells.cell_voxels)
+
+    def _init_paper(self, m, inputs: MarchInputs) -> None:
+        from incandescent.paper.colour import PAPER_XYZ_TO_RGB
+
+        s, sodium = inputs.settings, inputs.sodium_lut
+        self.paper_matrix = [[float(v) for v in row] for row in PAPER_XYZ_TO_RGB]
+        self.paper_exponent = float(s.paper_exponent)
+        self.paper_min_K = np.float32(s.paper_min_K)
+        self.paper_gain_per_m = np.float32(s.paper_gain / inputs.volume.voxel_size_m)
+        self.sodium_lut = None
+        if sodium is not None:
+            assert sodium.size == inputs.lut.size and sodium.t_max_K == inputs.lut.t_max_K
+            self.sodium_lut = m.Float(sodium.values.astype(np.float32).ravel())
 
     # --- sampling -------------------------------------------------------------------------
     def corners(self, p):
@@ -77,16 +93,50 @@ class _Kernel:
         c1 = dr.lerp(lerp_x(sz), lerp_x(sy + sz), fy)
         return dr.lerp(c0, c1, fz)
 
-    def emission(self, temp):
-        """XYZ per unit absorption from the 1/T table, linear interpolation; 0 below T_min."""
+    def lut_position(self, temp):
+        """Entry i0 and weight of T in the 1/T-uniform tables (all tables share the spacing)."""
         dr, m = self.dr, self.m
         f = (dr.rcp(dr.maximum(temp, 1e-30)) - self.lut_w_min) * self.lut_inv_dw
         f = dr.clip(f, 0.0, float(self.lut_size - 1))
         i0 = dr.minimum(m.UInt(f), self.lut_size - 2)
-        lo = dr.gather(m.Array3f, self.lut, i0)
-        hi = dr.gather(m.Array3f, self.lut, i0 + 1)
-        xyz = dr.lerp(lo, hi, f - m.Float(i0))
-        return dr.select(temp >= self.lut_t_min, xyz, 0.0)
+        return i0, f - m.Float(i0)
+
+    def lookup(self, table, position):
+        dr, Array3f = self.dr, self.m.Array3f
+        i0, frac = position
+        return dr.lerp(dr.gather(Array3f, table, i0), dr.gather(Array3f, table, i0 + 1), frac)
+
+    def emission(self, temp):
+        """XYZ per unit absorption from the 1/T table, linear interpolation; 0 below T_min."""
+        xyz = self.lookup(self.lut, self.lut_position(temp))
+        return self.dr.select(temp >= self.lut_t_min, xyz, 0.0)
+
+    def paper_colour(self, temp, c):
+        """The 2011 paper's voxel colour: chromaticity of the 19-sample sums (+ sodium) → sRGB,
+        negatives clamped, normalised to max 1, × T^exponent (``incandescent.paper.colour``)."""
+        dr = self.dr
+        position = self.lut_position(temp)
+        xyz = self.lookup(self.lut, position)
+        if self.sodium is not None and self.sodium_lut is not None:
+            fraction = dr.clip(self.trilinear(self.sodium, c), 0.0, 1.0)
+            xyz = dr.fma(self.lookup(self.sodium_lut, position), fraction, xyz)
+        chroma = xyz / (xyz[0] + xyz[1] + xyz[2])
+        rgb = self.m.Array3f(
+            *(
+                dr.maximum(sum(row[i] * chroma[i] for i in range(3)), 0.0)
+                for row in self.paper_matrix
+            )
+        )
+        peak = dr.maximum(dr.maximum(rgb[0], rgb[1]), rgb[2])
+        rgb = rgb * (dr.power(temp, self.paper_exponent) / peak)
+        return dr.select(temp >= self.lut_t_min, rgb, 0.0)
+
+    def accumulate_paper(self, tr, L, kappa, temp, c, ds_m):
+        """Paper mode: add colour × gain per voxel of path; no absorption (Tr stays 1)."""
+        rgb = self.paper_colour(temp, c)
+        if self.scale is not None:
+            rgb = rgb * self.trilinear(self.scale, c)
+        return tr, self.dr.fma(rgb, ds_m * self.paper_gain_per_m, L)
 
     # --- one segment ----------------------------------------------------------------------
     def integrate(self, tr, L, kappa, temp, c, ds_m):
@@ -104,10 +154,11 @@ class _Kernel:
         dr = self.dr
         c = self.corners(p)
         kappa, temp = self.trilinear(self.medium, c, self.m.Array2f)
+        contributes = temp >= self.paper_min_K if self.paper else kappa > 0.0
         tr, L = dr.if_stmt(
             (tr, L, kappa, temp, c, ds_m),
-            kappa > 0.0,
-            self.integrate,
+            contributes,
+            self.accumulate_paper if self.paper else self.integrate,
             lambda tr, L, kappa, temp, c, ds_m: (tr, L),
         )
         return k + 1.0, tr, L, n + 1
@@ -151,17 +202,19 @@ _DEVICE_GRIDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _device_grids(m, volume):
-    """((κ, T) interleaved, emission scale or None) as padded device arrays, uploaded once.
+    """((κ, T) interleaved, emission scale, sodium fraction) as padded device arrays (None where
+    absent), uploaded once per volume.
 
     κ and T of a voxel share a cache line, so the second lookup is nearly free.
     """
     per_volume = _DEVICE_GRIDS.setdefault(volume, {})
     if m.__name__ not in per_volume:
-        scale = volume.emission_scale
+        scale, sodium = volume.emission_scale, volume.sodium_fraction
         medium = np.stack([volume.absorption_per_m, volume.temperature_K], axis=-1)
         per_volume[m.__name__] = (
             m.Float(np.pad(medium, ((1, 1), (1, 1), (1, 1), (0, 0)), mode="edge").ravel()),
             None if scale is None else m.Float(_padded(scale)),
+            None if sodium is None else m.Float(_padded(sodium)),
         )
     return per_volume[m.__name__]
 

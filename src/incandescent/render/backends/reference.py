@@ -1,6 +1,8 @@
 """The reference backend: a readable float64 NumPy marcher, the ground truth for the others.
 
 All rays advance in lockstep, one segment per iteration (see ``common`` for the step lattice).
+Paper mode (``brightness="paper"``) sums the 2011 paper's colour (``incandescent.paper.colour``)
+along the ray without absorption; the cap at 255 is applied when the image is assembled.
 Emission is evaluated *exactly* — the Planck × CMF integral at each sample's temperature — not from
 the table the fast backends use, so parity tests also check the table. No empty-space skipping.
 """
@@ -25,6 +27,22 @@ def _emission_xyz(temp_K: np.ndarray, inputs: MarchInputs) -> np.ndarray:
     return out
 
 
+def _paper_step(inputs, r, p, ds_m, xyz) -> None:
+    """The 2011 paper: add paper_rgb(T, sodium)·gain per voxel of path where T ≥ paper_min_K."""
+    from incandescent.paper.colour import paper_rgb
+
+    vol, s = inputs.volume, inputs.settings
+    temp = trilinear(vol.temperature_K, p)
+    hot = temp >= np.float32(s.paper_min_K)
+    if not hot.any():
+        return
+    sodium = 0.0 if vol.sodium_fraction is None else trilinear(vol.sodium_fraction, p[hot])
+    rgb = paper_rgb(temp[hot], np.clip(sodium, 0.0, 1.0), s.paper_exponent)
+    if vol.emission_scale is not None:
+        rgb = rgb * trilinear(vol.emission_scale, p[hot])[:, None]
+    xyz[r[hot]] += rgb * (s.paper_gain * ds_m[hot] / vol.voxel_size_m)[:, None]
+
+
 def march(inputs: MarchInputs) -> MarchResult:
     """March every ray of ``inputs.rays`` front to back; float64 throughout."""
     start = time.perf_counter()
@@ -43,7 +61,10 @@ def march(inputs: MarchInputs) -> MarchResult:
         b = np.minimum(rays.t_enter[r] + (k[r] + rays.jitter[r]) * s.step_voxels, rays.t_exit[r])
         p = rays.origin[r] + rays.direction[r] * (0.5 * (a + b))[:, None]
         samples += r.size
-        _integrate_step(inputs, r, p, (b - a) * vol.voxel_size_m, xyz, transmittance)
+        if s.brightness == "paper":
+            _paper_step(inputs, r, p, (b - a) * vol.voxel_size_m, xyz)
+        else:
+            _integrate_step(inputs, r, p, (b - a) * vol.voxel_size_m, xyz, transmittance)
         k[r] += 1
         more = (b < rays.t_exit[r]) & (transmittance[r] >= s.min_transmittance)
         active = r[more]
