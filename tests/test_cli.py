@@ -206,3 +206,36 @@ def test_help_documents_render_flags():
         "--overwrite",
     ):
         assert flag in text
+
+
+def test_demo_sphere_in_paper_mode(tmp_path):
+    out = tmp_path / "sphere.png"
+    result = _run(
+        "demo",
+        "sphere",
+        "--brightness",
+        "paper",
+        "--width",
+        24,
+        "--height",
+        24,
+        "-o",
+        out,
+    )
+    assert result.exit_code == 0, result.output
+    image = np.asarray(Image.open(out))
+    assert image[12, 12, 0] == 255  # the paper's saturation at the centre of the sphere
+
+
+def test_demo_plate_writes_a_resumable_video(tmp_path):
+    out = tmp_path / "plate.gif"
+    args = ["demo", "plate", "--frames", 3, "--width", 32, "--height", 24, "-o", out]
+    result = _run(*args)
+    assert result.exit_code == 0, result.output
+    assert Image.open(out).n_frames >= 1
+    frames = sorted((tmp_path / "plate_frames").glob("frame_*.png"))
+    assert len(frames) == 3
+    frames[1].unlink()
+    result = _run(*args, "--overwrite")
+    assert result.exit_code == 0, result.output
+    assert "1 rendered, 2 reused" in " ".join(result.output.split())

@@ -25,7 +25,7 @@ app = typer.Typer(
 )
 console = Console(stderr=True)
 
-DEMOS = ("plume", "sparse", "sphere")
+DEMOS = ("plume", "sparse", "sphere", "plate")
 
 
 def _fail(message: str) -> typer.Exit:
@@ -179,40 +179,75 @@ def _summary(image, written: list[Path]) -> None:
         console.print(f"  wrote {path}", highlight=False)
 
 
-@app.command()
-def demo(
-    name: str = typer.Argument("plume", help=f"Scene: {', '.join(DEMOS)}."),
-    output: Path = typer.Option(
-        None, "--output", "-o", help="Output .png or .exr (default NAME.png)."
-    ),
-    size: int = typer.Option(128, help="Grid resolution (voxels per side)."),
-    width: int = typer.Option(512, help="Image width in pixels."),
-    height: int = typer.Option(512, help="Image height in pixels."),
-    backend: str = typer.Option("auto", help="auto | cpu | cuda | reference."),
-    overwrite: bool = typer.Option(False, help="Replace an existing output file."),
-) -> None:
-    """Render a built-in demo scene (no input files needed)."""
-    from incandescent import api, scenes
+def _demo_volume(name: str, size: int | None) -> Volume:
+    from incandescent import scenes
+    from incandescent.paper.scenes import paper_sphere
 
     makers: dict[str, Callable[[int], Volume]] = {
         "plume": scenes.plume,
         "sparse": scenes.sparse_flame,
-        "sphere": scenes.soot_sphere,
+        "sphere": paper_sphere,
     }
-    if name not in makers:
+    default_size = {"plume": 128, "sparse": 128, "sphere": 64}[name]
+    return makers[name](size or default_size)
+
+
+@app.command()
+def demo(
+    name: str = typer.Argument("plume", help=f"Scene: {', '.join(DEMOS)}."),
+    output: Path = typer.Option(
+        None,
+        "--output",
+        "-o",
+        help="Output: .png/.exr for images (default NAME.png); .mp4, .gif or a folder of PNG "
+        "frames for plate (default plate.mp4).",
+    ),
+    size: int = typer.Option(None, help="Grid resolution (plume/sparse 128, sphere 64)."),
+    width: int = typer.Option(None, help="Image width (512; plate 320)."),
+    height: int = typer.Option(None, help="Image height (512; plate 240)."),
+    frames: int = typer.Option(250, help="plate: number of frames."),
+    brightness: str = typer.Option("physical", help="physical | paper (the 2011 method)."),
+    backend: str = typer.Option("auto", help="auto | cpu | cuda | reference."),
+    overwrite: bool = typer.Option(False, help="Replace an existing output file."),
+) -> None:
+    """Render a built-in scene: plume, sparse, the paper's sphere, or the paper's plate video.
+
+    The plate video resumes: frames already in its frame folder are not rendered again.
+    """
+    from incandescent import api
+
+    if name not in DEMOS:
         raise _fail(f"unknown demo {name!r}; expected one of: {', '.join(DEMOS)}")
-    output = output or Path(f"{name}.png")
+    video = name == "plate"
+    output = output or Path(f"{name}.mp4" if video else f"{name}.png")
     try:
+        settings = api.RenderSettings(
+            width=width or (320 if video else 512),
+            height=height or (240 if video else 512),
+            brightness=brightness,
+        )
+        if video:
+            _demo_plate(output, settings, frames, backend, overwrite)
+            return
         _check_outputs([output], overwrite)
-        with console.status(f"building the {name} scene ({size}³)…"):
-            volume = makers[name](size)
-        settings = api.RenderSettings(width=width, height=height)
-        with console.status(f"rendering {width}×{height}…"):
+        with console.status(f"building the {name} scene…"):
+            volume = _demo_volume(name, size)
+        with console.status(f"rendering {settings.width}×{settings.height}…"):
             image = api.render(volume, settings=settings, backend=backend)
         written = [api.save_image(image, output, overwrite=overwrite)]
     except (ValueError, TypeError, FileNotFoundError, FileExistsError, RuntimeError) as error:
         raise _fail(str(error)) from None
     _summary(image, written)
+
+
+def _demo_plate(output: Path, settings, frames: int, backend: str, overwrite: bool) -> None:
+    from incandescent.paper.demos import render_plate_video
+    from incandescent.paper.scenes import PlateScene
+
+    scene = PlateScene(n_frames=frames)
+    start = time.perf_counter()
+    render_plate_video(output, settings, scene, backend=backend, overwrite=overwrite)
+    console.print(f"plate: {frames} frames in {time.perf_counter() - start:.1f} s", highlight=False)
 
 
 @app.command()

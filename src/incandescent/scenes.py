@@ -51,15 +51,3 @@ def sparse_flame(n: int = 256, flame_fraction: float = 0.12, peak_K: float = 190
     lo = (n - m) // 2
     temperature[lo : lo + m, n // 8 : n // 8 + m, lo : lo + m] = plume_temperature(m, peak_K)
     return Volume.from_arrays(temperature, source=f"sparse_flame({n})")
-
-
-def soot_sphere(
-    n: int = 64, temperature_K: float = 3000.0, absorption_per_m: float = 0.5
-) -> Volume:
-    """The paper's first scene: a roughly spherical cloud of transparent soot at ~3000 K."""
-    x, y, z = _coords((n, n, n))
-    r = np.sqrt(x**2 + ((y - 0.5) * 2) ** 2 + z**2)
-    shell = np.clip((1.0 - r) / 0.15, 0.0, 1.0)
-    temperature = AMBIENT_K + (temperature_K - AMBIENT_K) * shell
-    kappa = np.where(r < 1.0, absorption_per_m, 0.0) * np.ones_like(temperature)
-    return Volume.from_arrays(temperature, absorption=kappa, source=f"soot_sphere({n})")
