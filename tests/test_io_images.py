@@ -238,3 +238,11 @@ def test_png_errors_leave_existing_file(tmp_path, image, metadata, error, match)
         write_png(path, image, overwrite=True, metadata=metadata)
     assert path.read_bytes() == before
     assert _listing(tmp_path) == ["d.png"]
+
+
+def test_exr_extra_channels_from_non_contiguous_arrays_keep_their_layout(tmp_path):
+    """A transposed (non-C-contiguous) channel must be written in image order, not memory order."""
+    alpha = np.arange(12, dtype=np.float32).reshape(4, 3).T  # (3, 4), Fortran-ordered view
+    rgb = np.zeros((3, 4, 3), dtype=np.float32)
+    _, _, extra = read_exr(write_exr(tmp_path / "t.exr", rgb, extra_channels={"A": alpha}))
+    np.testing.assert_array_equal(extra["A"], alpha)

@@ -154,3 +154,34 @@ def test_emission_scale_multiplies_emission_only():
     b = render(scaled, _face_on(3.0), s, backend="cpu")
     np.testing.assert_allclose(b.xyz, 3.0 * a.xyz, rtol=1e-5)
     np.testing.assert_allclose(b.transmittance, a.transmittance, rtol=1e-6)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_depth_is_distance_to_first_emitting_sample(backend):
+    """Slab faces at z = ±0.5 m, camera plane at z = 3 m: depth lies within the first step."""
+    vol = _slab(2000.0, 1.0)
+    img = render(vol, _face_on(3.0), RenderSettings(width=3, height=3), backend=backend)
+    step_m = 0.5 * vol.voxel_size_m
+    assert img.depth_m is not None
+    assert np.all((img.depth_m >= 2.5) & (img.depth_m <= 2.5 + step_m))
+    cold = Volume.from_arrays(np.full((4, 4, 4), 300.0))
+    empty = render(cold, _face_on(3.0), RenderSettings(width=3, height=3), backend=backend)
+    assert np.all(np.isinf(empty.depth_m))
+
+
+def test_depth_matches_between_backends_and_reaches_the_exr(tmp_path):
+    from incandescent.io.images import read_exr
+    from incandescent.io.output import save_image
+
+    temp = _mirror_symmetric_field()
+    vol = Volume.from_arrays(temp)
+    cam = Camera(eye=(0.4, 0.3, 2.5), target=(0.0, 0.0, 0.0), fov_deg=35.0)
+    s = RenderSettings(width=12, height=9, supersample=2)
+    ref, fast = (render(vol, cam, s, backend=b) for b in ("reference", "cpu"))
+    hit = np.isfinite(ref.depth_m)
+    assert hit.any() and (~hit).any()
+    np.testing.assert_array_equal(np.isfinite(fast.depth_m), hit)
+    np.testing.assert_allclose(fast.depth_m[hit], ref.depth_m[hit], rtol=1e-5)
+    _, meta, extra = read_exr(save_image(fast, tmp_path / "d.exr"))
+    np.testing.assert_array_equal(extra["Z"], fast.depth_m)
+    assert "first emitting sample" in meta["Z"]

@@ -146,7 +146,9 @@ def _exr_channels(rgb: ArrayLike, extra: Mapping[str, ArrayLike] | None) -> dict
     for name, values in (extra or {}).items():
         if not isinstance(name, str) or not name or name in _RGB:
             raise ValueError(f"extra channel names must be non-empty and not R, G, B; got {name!r}")
-        channels[name] = _float_image(values, f"extra channel {name!r}", arr.shape[:2])
+        channels[name] = np.ascontiguousarray(  # OpenEXR reads the buffer in C order
+            _float_image(values, f"extra channel {name!r}", arr.shape[:2])
+        )
     return channels
 
 

@@ -32,9 +32,11 @@ def save_image(
     suffix = path.suffix.lower()
     if suffix == ".exr":
         meta = _metadata(image, {"exposure": "none (scene-referred)"})
-        return write_exr(
-            path, image.rgb(), meta, overwrite=overwrite, extra_channels={"A": image.alpha}
-        )
+        extra = {"A": image.alpha}
+        if image.depth_m is not None:
+            extra["Z"] = image.depth_m
+            meta["Z"] = "distance in m from the camera to the first emitting sample (inf: none)"
+        return write_exr(path, image.rgb(), meta, overwrite=overwrite, extra_channels=extra)
     if suffix == ".png":
         return write_png(
             path, display_pixels(image, display), overwrite=overwrite, metadata=_metadata(image)

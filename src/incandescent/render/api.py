@@ -78,12 +78,12 @@ def _march_inputs(volume, camera, settings, backend: str) -> MarchInputs:
     return MarchInputs(rays, volume, emission_lut(volume, settings), cells, settings, sodium)
 
 
-def _scatter_rays(values: np.ndarray, inputs: MarchInputs, fill: float) -> np.ndarray:
+def _scatter_rays(values: np.ndarray, inputs: MarchInputs, fill: float, reduce=np.mean):
     tail = values.shape[1:]
     full = np.full((inputs.rays.n_total,) + tail, fill, dtype=np.float64)
     full[inputs.rays.ray_index] = values
     s = inputs.settings
-    return resolve_pixels(full, s.width, s.height, s.supersample)
+    return resolve_pixels(full, s.width, s.height, s.supersample, reduce)
 
 
 def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRImage:
@@ -92,6 +92,7 @@ def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRI
         values = rgb_to_xyz(np.minimum(values, 255.0), "srgb")
     xyz = values.astype(np.float32)
     tr = _scatter_rays(result.transmittance, inputs, 1.0).astype(np.float32)
+    depth = _scatter_rays(result.depth_m, inputs, np.inf, np.min).astype(np.float32)
     s = inputs.settings
     metadata = {
         "backend": backend,
@@ -110,4 +111,4 @@ def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRI
         "incandescent_version": __version__,
         "python": platform.python_version(),
     }
-    return HDRImage(xyz, tr, s.space, metadata)
+    return HDRImage(xyz, tr, s.space, metadata, depth)

@@ -18,12 +18,15 @@ class HDRImage:
     transmittance: (H, W) float32 transmittance along each pixel's rays (1 = nothing in front).
     space: name of the RGB space :meth:`rgb` converts to by default.
     metadata: what made the image (backend, device, settings, samples, seconds, versions...).
+    depth_m: (H, W) distance in m from the camera to the first emitting sample, the nearest over
+        a pixel's sub-samples; inf where nothing emits.
     """
 
     xyz: NDArray[np.float32]
     transmittance: NDArray[np.float32]
     space: str = "srgb"
     metadata: dict = field(default_factory=dict)
+    depth_m: NDArray[np.float32] | None = None
 
     @property
     def height(self) -> int:
@@ -50,9 +53,12 @@ class HDRImage:
         return xyz_to_rgb(self.xyz, space or self.space).astype(np.float32)
 
 
-def resolve_pixels(values: NDArray, width: int, height: int, supersample: int) -> NDArray:
-    """Average the s² sub-pixel values of column-major ray data (n, ...) into (H, W, ...)."""
+def resolve_pixels(
+    values: NDArray, width: int, height: int, supersample: int, reduce=np.mean
+) -> NDArray:
+    """Reduce (default: average) the s² sub-pixel values of column-major ray data (n, ...) into an
+    (H, W, ...) image."""
     s2 = supersample * supersample
     tail = values.shape[1:]
-    per_pixel = values.reshape((width, height, s2) + tail).mean(axis=2)
-    return np.swapaxes(per_pixel, 0, 1)
+    per_pixel = reduce(values.reshape((width, height, s2) + tail), axis=2)
+    return np.ascontiguousarray(np.swapaxes(per_pixel, 0, 1))

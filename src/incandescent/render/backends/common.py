@@ -53,6 +53,7 @@ class MarchResult:
     samples: int
     seconds: float
     device: str
+    depth_m: NDArray  # distance from the ray origin to the first emitting sample; inf if none
 
 
 def trilinear_setup(p: NDArray, n: int) -> tuple[NDArray, NDArray, NDArray]:

@@ -152,18 +152,24 @@ class _Kernel:
         alpha = dr.select(x < THIN_STEP, x * (1.0 - x * (0.5 - x * (1.0 / 6.0))), 1.0 - e)
         return tr * e, dr.fma(xyz, tr * alpha, L)
 
-    def sample(self, k, tr, L, n, p, ds_m):
+    def sample(self, k, tr, L, n, depth, p, t_mid, ds_m):
+        """One segment: sample (κ, T) at its midpoint and integrate where the medium emits."""
         dr = self.dr
         c = self.corners(p)
         kappa, temp = self.trilinear(self.medium, c, self.m.Array2f)
-        contributes = temp >= self.paper_min_K if self.paper else kappa > 0.0
+        if self.paper:
+            contributes = temp >= self.paper_min_K
+        else:
+            contributes = (kappa > 0.0) & (temp >= self.lut_t_min)
         tr, L = dr.if_stmt(
             (tr, L, kappa, temp, c, ds_m),
             contributes,
             self.accumulate_paper if self.paper else self.integrate,
             lambda tr, L, kappa, temp, c, ds_m: (tr, L),
         )
-        return k + 1.0, tr, L, n + 1
+        first = contributes & (depth == np.inf)
+        depth = dr.select(first, t_mid * self.ds_per_voxel, depth)
+        return k + 1.0, tr, L, n + 1, depth
 
     # --- empty space --------------------------------------------------------------------------
     def cell_index(self, p):
@@ -243,7 +249,7 @@ def _ray_arrays(m, rays):
 
 
 def trace(inputs: MarchInputs, m):
-    """Trace the megakernel for all rays; returns lazy (XYZ, transmittance, samples) arrays."""
+    """Trace the megakernel for all rays; returns lazy (XYZ, transmittance, samples, depth)."""
     dr, K = drjit_module(), _Kernel(m, inputs)
     o, d, t0, t1, j = _ray_arrays(m, inputs.rays)
     dt, skipping = K.dt, K.cells is not None
@@ -253,26 +259,24 @@ def trace(inputs: MarchInputs, m):
         b = dr.minimum(dr.fma(k + j, dt, t0), t1)
         return a, b
 
-    def cond(k, tr, L, n):
+    def cond(k, tr, L, n, depth):
         a, _ = segment(k)
         return (a < t1) & (tr >= K.min_tr)
 
-    def body(k, tr, L, n):
-        a, b = segment(k)
-        p = dr.fma(d, 0.5 * (a + b), o)
-        ds_m = (b - a) * K.ds_per_voxel
-        if not skipping:
-            return K.sample(k, tr, L, n, p, ds_m)
-        return dr.if_stmt(
-            (k, tr, L, n, p, ds_m),
-            K.is_empty(p),
-            lambda k, tr, L, n, p, ds_m: (K.skip(k, p, (o, d, t0, j)), tr, L, n),
-            K.sample,
-        )
+    def skip(k, tr, L, n, depth, p, t_mid, ds_m):
+        return K.skip(k, p, (o, d, t0, j)), tr, L, n, depth
 
-    state = (m.Float(0.0), m.Float(1.0), m.Array3f(0.0), m.UInt(0))
-    _, tr, L, n = dr.while_loop(state, cond, body, labels=("k", "tr", "L", "n"))
-    return L, tr, n
+    def body(k, tr, L, n, depth):
+        a, b = segment(k)
+        t_mid = 0.5 * (a + b)
+        args = (k, tr, L, n, depth, dr.fma(d, t_mid, o), t_mid, (b - a) * K.ds_per_voxel)
+        if not skipping:
+            return K.sample(*args)
+        return dr.if_stmt(args, K.is_empty(args[5]), skip, K.sample)
+
+    state = (m.Float(0.0), m.Float(1.0), m.Array3f(0.0), m.UInt(0), m.Float(np.inf))
+    _, tr, L, n, depth = dr.while_loop(state, cond, body, labels=("k", "tr", "L", "n", "depth"))
+    return L, tr, n, depth
 
 
 def march(inputs: MarchInputs, kind: str) -> MarchResult:
@@ -280,12 +284,14 @@ def march(inputs: MarchInputs, kind: str) -> MarchResult:
     m = array_module(kind)
     dr = drjit_module()
     if inputs.rays.size == 0:
-        return MarchResult(np.zeros((0, 3)), np.ones(0), 0, 0.0, device_name(kind))
+        return MarchResult(
+            np.zeros((0, 3)), np.ones(0), 0, 0.0, device_name(kind), np.full(0, np.inf)
+        )
     with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
         dr.kernel_history()  # clear
         start = time.perf_counter()
-        L, tr, n = trace(inputs, m)
-        dr.eval(L, tr, n)
+        L, tr, n, depth = trace(inputs, m)
+        dr.eval(L, tr, n, depth)
         dr.sync_thread()
         wall = time.perf_counter() - start
         compile_s = sum(_compile_seconds(h) for h in dr.kernel_history())
@@ -297,6 +303,7 @@ def march(inputs: MarchInputs, kind: str) -> MarchResult:
         samples,
         max(wall - compile_s, 0.0),
         device_name(kind),
+        np.asarray(depth, dtype=np.float64),
     )
 
 

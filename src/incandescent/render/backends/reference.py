@@ -27,20 +27,23 @@ def _emission_xyz(temp_K: np.ndarray, inputs: MarchInputs) -> np.ndarray:
     return out
 
 
-def _paper_step(inputs, r, p, ds_m, xyz) -> None:
-    """The 2011 paper: add paper_rgb(T, sodium)·gain per voxel of path where T ≥ paper_min_K."""
+def _paper_step(inputs, r, p, ds_m, xyz) -> np.ndarray:
+    """The 2011 paper: add paper_rgb(T, sodium)·gain per voxel of path where T ≥ paper_min_K.
+
+    Returns the mask of rays whose sample contributed."""
     from incandescent.paper.colour import paper_rgb
 
     vol, s = inputs.volume, inputs.settings
     temp = trilinear(vol.temperature_K, p)
     hot = temp >= np.float32(s.paper_min_K)
     if not hot.any():
-        return
+        return hot
     sodium = 0.0 if vol.sodium_fraction is None else trilinear(vol.sodium_fraction, p[hot])
     rgb = paper_rgb(temp[hot], np.clip(sodium, 0.0, 1.0), s.paper_exponent)
     if vol.emission_scale is not None:
         rgb = rgb * trilinear(vol.emission_scale, p[hot])[:, None]
     xyz[r[hot]] += rgb * (s.paper_gain * ds_m[hot] / vol.voxel_size_m)[:, None]
+    return hot
 
 
 def march(inputs: MarchInputs) -> MarchResult:
@@ -50,6 +53,7 @@ def march(inputs: MarchInputs) -> MarchResult:
     n = rays.size
     xyz = np.zeros((n, 3))
     transmittance = np.ones(n)
+    depth = np.full(n, np.inf)
     k = np.zeros(n)
     samples = 0
     active = np.arange(n)
@@ -62,27 +66,35 @@ def march(inputs: MarchInputs) -> MarchResult:
         p = rays.origin[r] + rays.direction[r] * (0.5 * (a + b))[:, None]
         samples += r.size
         if s.brightness == "paper":
-            _paper_step(inputs, r, p, (b - a) * vol.voxel_size_m, xyz)
+            emits = _paper_step(inputs, r, p, (b - a) * vol.voxel_size_m, xyz)
         else:
-            _integrate_step(inputs, r, p, (b - a) * vol.voxel_size_m, xyz, transmittance)
+            emits = _integrate_step(inputs, r, p, (b - a) * vol.voxel_size_m, xyz, transmittance)
+        first = emits & np.isinf(depth[r])
+        depth[r[first]] = 0.5 * (a + b)[first] * vol.voxel_size_m
         k[r] += 1
         more = (b < rays.t_exit[r]) & (transmittance[r] >= s.min_transmittance)
         active = r[more]
-    return MarchResult(xyz, transmittance, samples, time.perf_counter() - start, "numpy float64")
+    seconds = time.perf_counter() - start
+    return MarchResult(xyz, transmittance, samples, seconds, "numpy float64", depth)
 
 
-def _integrate_step(inputs, r, p, ds_m, xyz, transmittance) -> None:
-    """Exact emission–absorption over one segment of ``ds_m`` metres for rays ``r``, in place."""
+def _integrate_step(inputs, r, p, ds_m, xyz, transmittance) -> np.ndarray:
+    """Exact emission–absorption over one segment of ``ds_m`` metres for rays ``r``, in place.
+
+    Returns the mask of rays whose sample emits (κ > 0 and T at or above the table's T_min)."""
     vol = inputs.volume
     kappa = trilinear(vol.absorption_per_m, p)
     absorbing = kappa > 0  # where κ = 0 nothing is emitted (Kirchhoff): skip the spectral integral
+    emits = absorbing.copy()
     if not absorbing.any():
-        return
+        return emits
     r, p, kappa, ds_m = r[absorbing], p[absorbing], kappa[absorbing], ds_m[absorbing]
     temp = trilinear(vol.temperature_K, p)
+    emits[absorbing] = temp >= inputs.lut.t_min_K
     scale = 1.0 if vol.emission_scale is None else trilinear(vol.emission_scale, p)
     optical_depth = kappa * ds_m
     alpha = -np.expm1(-optical_depth)
     emitted = (transmittance[r] * alpha * scale)[:, None] * _emission_xyz(temp, inputs)
     xyz[r] += emitted
     transmittance[r] *= np.exp(-optical_depth)
+    return emits
