@@ -239,3 +239,17 @@ def test_demo_plate_writes_a_resumable_video(tmp_path):
     result = _run(*args, "--overwrite")
     assert result.exit_code == 0, result.output
     assert "1 rendered, 2 reused" in " ".join(result.output.split())
+
+
+def test_temperature_range_maps_a_normalised_field(tmp_path):
+    path = tmp_path / "norm.npy"
+    np.save(path, np.full((4, 4, 4), 0.5))
+    stats = tmp_path / "s.json"
+    args = ["render", path, "-o", tmp_path / "n.exr", "--width", 4, "--height", 4]
+    result = _run(*args, "--temperature-range", "1000:3000", "--stats", stats)
+    assert result.exit_code == 0, result.output
+    assert json.loads(stats.read_text())["max_luminance_cd_m2"] > 0
+    bad = _run(*args, "--temperature-range", "3000:1000", "--overwrite")
+    assert bad.exit_code == 2 and "--temperature-range must be LOW:HIGH" in bad.output
+    both = _run(*args, "--temperature-range", "0:1", "--scale", 2, "--overwrite")
+    assert both.exit_code == 2 and "replaces --offset/--scale" in both.output

@@ -134,3 +134,10 @@ def test_settings_reject_bad_values(kwargs, match):
 def test_render_rejects_non_volume():
     with pytest.raises(TypeError, match="volume must be an incandescent.Volume; got ndarray"):
         render(np.zeros((2, 2, 2)))  # type: ignore[arg-type]
+
+
+def test_remap_from_range():
+    remap = Remap.from_range(800.0, 2200.0)
+    np.testing.assert_allclose(remap.apply(np.array([0.0, 0.5, 1.0])), [800.0, 1500.0, 2200.0])
+    with pytest.raises(ValueError, match="0 <= LOW < HIGH"):
+        Remap.from_range(2000.0, 1000.0)

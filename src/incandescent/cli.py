@@ -84,6 +84,9 @@ def render(
     offset: float = typer.Option(0.0, help="Temperature remap: T = (raw − offset)·scale."),
     scale: float = typer.Option(1.0, help="Temperature remap scale (K per raw unit)."),
     cutoff: float = typer.Option(0.0, help="Voxels below this many K are vacuum."),
+    temperature_range: str = typer.Option(
+        None, help="LOW:HIGH — map a normalised 0..1 field linearly to LOW..HIGH K."
+    ),
     eye: str = typer.Option(None, help="Camera position X,Y,Z in m (default: three-quarter view)."),
     target: str = typer.Option(None, help="Point looked at, X,Y,Z in m (default: box centre)."),
     fov: float = typer.Option(40.0, help="Vertical field of view in degrees."),
@@ -114,7 +117,7 @@ def render(
             temperature_grid,
             absorption,
             voxel_size,
-            api.Remap(offset=offset, scale=scale, cutoff_K=cutoff),
+            _remap(offset, scale, cutoff, temperature_range),
         )
         camera = api.camera_from(grids, _vector(eye, "eye"), _vector(target, "target"), fov)
         settings = api.RenderSettings(
@@ -141,6 +144,22 @@ def render(
     except (ValueError, TypeError, FileNotFoundError, FileExistsError, RuntimeError) as error:
         raise _fail(str(error)) from None
     _summary(image, written)
+
+
+def _remap(offset: float, scale: float, cutoff: float, temperature_range: str | None):
+    from incandescent.volume import Remap
+
+    if temperature_range is None:
+        return Remap(offset=offset, scale=scale, cutoff_K=cutoff)
+    if (offset, scale) != (0.0, 1.0):
+        raise ValueError("--temperature-range replaces --offset/--scale; give one or the other")
+    low, sep, high = temperature_range.partition(":")
+    try:
+        return Remap.from_range(float(low), float(high), cutoff)
+    except ValueError:
+        raise ValueError(
+            f"--temperature-range must be LOW:HIGH in K (e.g. 800:2200); got {temperature_range!r}"
+        ) from None
 
 
 def _check_outputs(paths: list[Path | None], overwrite: bool) -> None:

@@ -48,6 +48,16 @@ class Remap:
     def apply(self, raw: NDArray) -> NDArray[np.float64]:
         return (raw - self.offset) * self.scale
 
+    @classmethod
+    def from_range(cls, low_K: float, high_K: float, cutoff_K: float = 0.0) -> Remap:
+        """Map a normalised field linearly: raw 0 → ``low_K``, raw 1 → ``high_K``."""
+        low, high = float(low_K), float(high_K)
+        if not (np.isfinite(low) and np.isfinite(high)) or not 0 <= low < high:
+            raise ValueError(
+                f"temperature range must be LOW:HIGH in K, 0 <= LOW < HIGH; got {low_K}:{high_K}"
+            )
+        return cls(offset=-low / (high - low), scale=high - low, cutoff_K=cutoff_K)
+
 
 @dataclass(frozen=True, eq=False)
 class Volume:
