@@ -253,3 +253,21 @@ def test_temperature_range_maps_a_normalised_field(tmp_path):
     assert bad.exit_code == 2 and "--temperature-range must be LOW:HIGH" in bad.output
     both = _run(*args, "--temperature-range", "0:1", "--scale", 2, "--overwrite")
     assert both.exit_code == 2 and "replaces --offset/--scale" in both.output
+
+
+def test_animate_a_sequence_of_files_resumes(tmp_path):
+    from incandescent.scenes import plume_temperature
+
+    base = plume_temperature(12)
+    for i in range(3):
+        np.save(tmp_path / f"fire_{i:04d}.npy", base * (0.8 + 0.1 * i))
+    out = tmp_path / "fire.gif"
+    args = ["animate", str(tmp_path / "fire_####.npy"), "-o", out, "--width", 24, "--height", 16]
+    result = _run(*args)
+    assert result.exit_code == 0, result.output
+    assert Image.open(out).n_frames == 3
+    again = _run(*args, "--overwrite")
+    assert again.exit_code == 0, again.output
+    assert "0 rendered, 3 reused" in " ".join(again.output.split())
+    missing = _run("animate", str(tmp_path / "nothing_*.npy"), "-o", tmp_path / "x.mp4")
+    assert missing.exit_code == 2 and "no files match" in missing.output

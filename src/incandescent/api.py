@@ -49,8 +49,12 @@ def load_volume(
     )
 
 
-def camera_from(volume: Volume, eye=None, target=None, fov_deg: float = 40.0) -> Camera:
-    """The default three-quarter camera, with any of eye/target/fov overridden."""
-    camera = default_camera(volume.content_bounds_m, fov_deg=fov_deg)
+def camera_from(
+    volume: Volume, eye=None, target=None, fov_deg: float = 40.0, frame_content: bool = True
+) -> Camera:
+    """The default three-quarter camera — framing the gas, or the whole box when
+    ``frame_content`` is false (animations) — with any of eye/target/fov overridden."""
+    bounds = volume.content_bounds_m if frame_content else volume.bounds_m
+    camera = default_camera(bounds, fov_deg=fov_deg)
     changes = {k: v for k, v in (("eye", eye), ("target", target)) if v is not None}
     return camera.replace(**changes) if changes else camera

@@ -270,6 +270,83 @@ def _demo_plate(output: Path, settings, frames: int, backend: str, overwrite: bo
 
 
 @app.command()
+def animate(
+    pattern: str = typer.Argument(
+        ..., help="Volume files of a sequence: a glob ('cache/*.npz') or a #### frame pattern."
+    ),
+    output: Path = typer.Option(
+        ..., "--output", "-o", help="Output .mp4, .gif, or a folder for PNG frames."
+    ),
+    width: int = typer.Option(640, help="Frame width in pixels."),
+    height: int = typer.Option(360, help="Frame height in pixels."),
+    step: float = typer.Option(0.5, help="Ray-march step in voxels."),
+    absorption: float = typer.Option(None, help="Constant absorption κ in 1/m."),
+    voxel_size: float = typer.Option(None, help="Voxel side in m."),
+    temperature_grid: str = typer.Option("temperature", help="Temperature grid name (.npz)."),
+    offset: float = typer.Option(0.0, help="Temperature remap: T = (raw − offset)·scale."),
+    scale: float = typer.Option(1.0, help="Temperature remap scale (K per raw unit)."),
+    cutoff: float = typer.Option(0.0, help="Voxels below this many K are vacuum."),
+    temperature_range: str = typer.Option(None, help="LOW:HIGH — normalised field to kelvin."),
+    eye: str = typer.Option(None, help="Camera position X,Y,Z in m (default: three-quarter view)."),
+    target: str = typer.Option(None, help="Point looked at, X,Y,Z in m."),
+    fov: float = typer.Option(40.0, help="Vertical field of view in degrees."),
+    brightness: str = typer.Option("physical", help="physical | paper."),
+    exposure: float = typer.Option(
+        0.0, help="Exposure compensation in EV over the fixed exposure."
+    ),
+    fps: float = typer.Option(25.0, help="Frames per second of the video."),
+    backend: str = typer.Option("auto", help="auto | cpu | cuda | reference."),
+    overwrite: bool = typer.Option(False, help="Replace an existing video (frames are reused)."),
+) -> None:
+    """Render a sequence of volume files to MP4/GIF/PNG frames with one camera and one exposure.
+
+    The camera frames the first file's box; the exposure is auto exposure of the middle frame.
+    Re-running resumes: frames already in OUTPUT_frames/ are not rendered again.
+    """
+    from incandescent import api
+    from incandescent.animation import expand_sequence, fixed_display, key_frame, render_video
+
+    try:
+        paths = expand_sequence(pattern)
+        remap = _remap(offset, scale, cutoff, temperature_range)
+
+        def volume_at(index: int):
+            return api.load_volume(paths[index], temperature_grid, absorption, voxel_size, remap)
+
+        first = volume_at(0)
+        camera = api.camera_from(
+            first, _vector(eye, "eye"), _vector(target, "target"), fov, frame_content=False
+        )
+        settings = api.RenderSettings(
+            width=width, height=height, step_voxels=step, brightness=brightness
+        )
+        display = fixed_display(
+            volume_at(key_frame(paths)),
+            camera,
+            settings,
+            backend,
+            api.DisplaySettings(exposure_ev=exposure),
+        )
+        start = time.perf_counter()
+        render_video(
+            volume_at,
+            len(paths),
+            output,
+            camera,
+            settings,
+            display,
+            backend=backend,
+            overwrite=overwrite,
+            fps=fps,
+        )
+    except (ValueError, TypeError, FileNotFoundError, FileExistsError, RuntimeError) as error:
+        raise _fail(str(error)) from None
+    console.print(
+        f"animate: {len(paths)} frames in {time.perf_counter() - start:.1f} s", highlight=False
+    )
+
+
+@app.command()
 def bench(
     as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
     scenes: str = typer.Option("plume,sparse", help="Comma-separated scenes: plume, sparse."),

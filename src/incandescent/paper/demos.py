@@ -4,40 +4,18 @@ in paper or physical brightness. The CLI's ``incandescent demo sphere|plate`` ca
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
-import numpy as np
-
+from incandescent.animation import fixed_display, render_video
 from incandescent.camera import Camera, default_camera
-from incandescent.imaging import DisplaySettings, auto_exposure_scale
-from incandescent.io.output import display_pixels
-from incandescent.io.video import AnimationSummary, animate
+from incandescent.io.video import AnimationSummary
 from incandescent.paper.scenes import PlateScene
 from incandescent.render import HDRImage, RenderSettings, render
-from incandescent.volume import Volume
 
 
 def plate_camera(scene: PlateScene) -> Camera:
     """A fixed three-quarter view of the whole plate box (the same for every frame)."""
     return default_camera(scene.volume(scene.frame(0)).bounds_m, fov_deg=35.0)
-
-
-def fixed_display(
-    scene: PlateScene, camera: Camera, settings: RenderSettings, backend: str
-) -> DisplaySettings:
-    """Display settings with one exposure for the whole video (auto exposure per frame flickers):
-    the auto exposure of the frame where the gas holds the most heat, rendered small."""
-    if settings.brightness == "paper":
-        return DisplaySettings()
-    frames = list(scene.frames())
-    hottest = max(range(len(frames)), key=lambda i: scene.excess_heat(frames[i]))
-    preview = settings.replace(
-        width=max(8, settings.width // 4), height=max(8, settings.height // 4)
-    )
-    image = render(scene.volume(frames[hottest]), camera, preview, backend=backend)
-    ev = math.log2(auto_exposure_scale(image.luminance))
-    return DisplaySettings(auto_exposure=False, exposure_ev=ev)
 
 
 def render_plate_video(
@@ -49,19 +27,23 @@ def render_plate_video(
     progress: bool = True,
 ) -> AnimationSummary:
     """Render the plate sequence to ``output`` (.mp4, .gif, or a folder of PNG frames), resuming
-    from frames already in the frame folder."""
+    from frames already in the frame folder. One exposure for all frames: auto exposure of the
+    frame where the gas holds the most heat."""
     scene = scene or PlateScene()
     camera = plate_camera(scene)
-    display = fixed_display(scene, camera, settings, backend or "auto")
-
-    def render_frame(volume: Volume) -> np.ndarray:
-        return display_pixels(render(volume, camera, settings, backend=backend), display)
-
-    def volume_at(index: int) -> Volume:
-        return scene.volume(scene.frame(index))
-
-    return animate(
-        volume_at, scene.n_frames, output, render_frame, overwrite=overwrite, progress=progress
+    frames = list(scene.frames())
+    hottest = max(range(len(frames)), key=lambda i: scene.excess_heat(frames[i]))
+    display = fixed_display(scene.volume(frames[hottest]), camera, settings, backend)
+    return render_video(
+        lambda i: scene.volume(frames[i]),
+        scene.n_frames,
+        output,
+        camera,
+        settings,
+        display,
+        backend=backend,
+        overwrite=overwrite,
+        progress=progress,
     )
 
 

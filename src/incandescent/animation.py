@@ -1,0 +1,88 @@
+"""Rendering sequences of volumes to video with one camera and one exposure for every frame.
+
+Per-frame auto exposure makes a video flicker, so :func:`fixed_display` chooses one exposure from a
+key frame (rendered small) and every frame uses it. Frames are written by
+:func:`incandescent.io.video.animate`: resumable PNG frames, then MP4/GIF.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from incandescent.camera import Camera
+from incandescent.imaging import DisplaySettings, auto_exposure_scale
+from incandescent.io.output import display_pixels
+from incandescent.io.video import AnimationSummary, animate
+from incandescent.render import RenderSettings, render
+from incandescent.volume import Volume
+
+
+def fixed_display(
+    key_volume: Volume,
+    camera: Camera,
+    settings: RenderSettings,
+    backend: str | None = "auto",
+    base: DisplaySettings | None = None,
+) -> DisplaySettings:
+    """``base`` with auto exposure replaced by the fixed exposure that auto exposure picks for
+    ``key_volume`` (rendered at a quarter of the size); unchanged for paper mode or when ``base``
+    already has auto exposure off."""
+    base = base or DisplaySettings()
+    if settings.brightness == "paper" or not base.auto_exposure:
+        return base
+    preview = settings.replace(
+        width=max(8, settings.width // 4), height=max(8, settings.height // 4)
+    )
+    image = render(key_volume, camera, preview, backend=backend)
+    ev = math.log2(auto_exposure_scale(image.luminance)) + base.exposure_ev
+    return DisplaySettings(
+        space=base.space,
+        white_balance=base.white_balance,
+        exposure_ev=ev,
+        auto_exposure=False,
+        tonemap=base.tonemap,
+        gamut=base.gamut,
+        bits=base.bits,
+    )
+
+
+def render_video(
+    volume_at: Callable[[int], Volume],
+    n_frames: int,
+    output: str | Path,
+    camera: Camera,
+    settings: RenderSettings,
+    display: DisplaySettings,
+    backend: str | None = "auto",
+    overwrite: bool = False,
+    progress: bool = True,
+    fps: float = 25.0,
+) -> AnimationSummary:
+    """Render frames 0 … n_frames − 1 of ``volume_at`` to ``output`` (.mp4, .gif or a folder)."""
+
+    def render_frame(volume: Volume) -> np.ndarray:
+        return display_pixels(render(volume, camera, settings, backend=backend), display)
+
+    return animate(
+        volume_at, n_frames, output, render_frame, fps=fps, overwrite=overwrite, progress=progress
+    )
+
+
+def expand_sequence(pattern: str) -> list[Path]:
+    """Files of a sequence: a glob (``cache/*.vdb``) or a ``####`` frame pattern, sorted."""
+    import glob
+
+    glob_pattern = pattern.replace("#", "[0-9]") if "#" in pattern else pattern
+    paths = sorted(Path(p) for p in glob.glob(glob_pattern))
+    if not paths:
+        raise FileNotFoundError(f"no files match {pattern!r}")
+    return paths
+
+
+def key_frame(paths: Sequence[Path]) -> int:
+    """The middle frame: a reasonable exposure key for a sequence we know nothing else about."""
+    return len(paths) // 2
