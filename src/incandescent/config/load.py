@@ -1,0 +1,272 @@
+"""Scene files (TOML or JSON) and dicts → a validated :class:`~incandescent.config.schema.Scene`.
+
+Errors are one :class:`SceneError` (a ``ValueError``) whose message names the file, the dotted key
+path and the problem: unknown keys get a "did you mean", type errors quote the value and the
+expected type, TOML/JSON syntax errors give the line and column. Relative paths in a file
+(``volume.path``, ``output.path``, ``output.stats``) resolve against the file's folder; paths in
+``overrides`` (command-line flags) are left as given, i.e. relative to the working directory.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+import re
+import sys
+import types
+import typing
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from incandescent.config.schema import Scene
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+__all__ = ["SUFFIXES", "SceneError", "load_scene", "merge_overrides", "scene_from_dict"]
+
+SUFFIXES = (".toml", ".json")
+#: Keys holding file paths, resolved against the scene file's folder.
+PATH_KEYS = (("volume", "path"), ("output", "path"), ("output", "stats"))
+#: At most this many problems are spelled out in one message.
+MAX_REPORTED = 5
+
+
+class SceneError(ValueError):
+    """An invalid scene file, dict or override; the message is meant for the user as is."""
+
+
+def load_scene(path: str | Path, overrides: Mapping[str, Any] | None = None) -> Scene:
+    """Read a ``.toml`` or ``.json`` scene file and apply ``overrides`` over its values.
+
+    ``overrides`` is a nested dict such as ``{"render": {"width": 64}}`` (what CLI flags produce);
+    keys whose value is ``None`` are ignored (a flag not given). Raises ``FileNotFoundError``
+    for a missing file and :class:`SceneError` for everything else.
+    """
+    path = Path(path)
+    data = _read(path)
+    _resolve_paths(data, path.parent)
+    return _validate(merge_overrides(data, overrides), str(path), overrides)
+
+
+def scene_from_dict(
+    data: Mapping[str, Any],
+    base_dir: str | Path | None = None,
+    overrides: Mapping[str, Any] | None = None,
+    source: str = "scene",
+) -> Scene:
+    """Validate a scene given as a dict (the Python API); relative paths in ``data`` resolve
+    against ``base_dir`` (default: left relative to the working directory)."""
+    if not isinstance(data, Mapping):
+        raise SceneError(f"{source}: a scene is a table of sections; got {type(data).__name__}")
+    copy = _plain(data)
+    if base_dir is not None:
+        _resolve_paths(copy, Path(base_dir))
+    return _validate(merge_overrides(copy, overrides), source, overrides)
+
+
+def merge_overrides(data: Mapping[str, Any], overrides: Mapping[str, Any] | None) -> dict:
+    """A copy of ``data`` with ``overrides`` applied key by key (nested dicts merge, ``None`` in
+    ``overrides`` means "not given")."""
+    merged = _plain(data)
+    for key, value in (overrides or {}).items():
+        if value is None:
+            continue
+        if isinstance(value, Mapping) and isinstance(merged.get(key), Mapping):
+            merged[key] = merge_overrides(merged[key], value)
+        elif isinstance(value, Mapping):
+            merged[key] = merge_overrides({}, value)
+        else:
+            merged[key] = value
+    return merged
+
+
+def _plain(data: Mapping[str, Any]) -> dict:
+    return {k: _plain(v) if isinstance(v, Mapping) else v for k, v in data.items()}
+
+
+# --- reading ------------------------------------------------------------------------------------
+
+
+def _read(path: Path) -> dict:
+    suffix = path.suffix.lower()
+    if suffix not in SUFFIXES:
+        raise SceneError(
+            f"{path}: unsupported scene format {path.suffix!r}; expected .toml or .json"
+        )
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such scene file")
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise SceneError(f"{path}: not UTF-8 text ({error})") from None
+    data = _parse_toml(text, path) if suffix == ".toml" else _parse_json(text, path)
+    if not isinstance(data, dict):
+        raise SceneError(f"{path}: a scene is a table of sections; got {type(data).__name__}")
+    return data
+
+
+def _parse_toml(text: str, path: Path) -> dict:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        message = str(error)
+        where = re.search(r"\(at line (\d+), column (\d+)\)", message)
+        if where is None:
+            raise SceneError(f"{path}: TOML syntax error: {message}") from None
+        what = message[: where.start()].strip()
+        raise SceneError(
+            f"{path}: TOML syntax error at line {where[1]}, column {where[2]}: {what}"
+        ) from None
+
+
+def _parse_json(text: str, path: Path) -> Any:
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as error:
+        raise SceneError(
+            f"{path}: JSON syntax error at line {error.lineno}, column {error.colno}: {error.msg}"
+        ) from None
+
+
+def _resolve_paths(data: dict, base_dir: Path) -> None:
+    for section, key in PATH_KEYS:
+        table = data.get(section)
+        if isinstance(table, dict) and isinstance(table.get(key), str):
+            path = Path(table[key]).expanduser()
+            table[key] = str(path if path.is_absolute() else base_dir.absolute() / path)
+
+
+# --- errors -------------------------------------------------------------------------------------
+
+
+def _validate(data: dict, source: str, overrides: Mapping[str, Any] | None) -> Scene:
+    try:  # strict JSON-mode validation: no str → number or bool → number coercion
+        return Scene.model_validate_json(json.dumps(data, default=_jsonable))
+    except ValidationError as error:
+        raise SceneError(_message(error, data, source, overrides)) from None
+
+
+def _jsonable(value: Any) -> Any:
+    """JSON for values TOML and Python callers produce beyond JSON's types."""
+    if isinstance(value, (tuple, set)):
+        return list(value)
+    if hasattr(value, "tolist"):  # NumPy scalars and arrays
+        return value.tolist()
+    return str(value)  # paths, dates
+
+
+def _message(error: ValidationError, data: dict, source: str, overrides) -> str:
+    lines: dict[str, str] = {}  # key path → problem (union members report once)
+    for item in error.errors():
+        keys = _key_path(item["loc"])
+        dotted = ".".join(keys)
+        if dotted not in lines:
+            problem = _problem(item, keys, data, exact=len(keys) == len(item["loc"]))
+            if overrides and _lookup(overrides, keys) not in (_MISSING, None):
+                problem += " (from an override)"
+            lines[dotted] = f"{dotted}: {problem}" if dotted else problem
+    shown = list(lines.values())[:MAX_REPORTED]
+    more = len(lines) - len(shown)
+    if len(shown) == 1:
+        return f"{source}: {shown[0]}"
+    text = f"{source}: {len(lines)} problems\n" + "\n".join(f"  - {line}" for line in shown)
+    return text + (f"\n  ... and {more} more" if more else "")
+
+
+def _key_path(loc: tuple) -> list[str]:
+    """The loc's components that are keys of the scene (drops union tags and list indices)."""
+    keys: list[str] = []
+    for part in loc:
+        if not isinstance(part, str):
+            break
+        parent = _annotation(keys)
+        if keys and not _is_model(parent) and typing.get_origin(parent) is not dict:
+            break
+        keys.append(part)  # a field, a table key, or an unknown key (extra_forbidden)
+    return keys
+
+
+def _is_model(obj: Any) -> bool:
+    return isinstance(obj, type) and issubclass(obj, BaseModel)
+
+
+def _annotation(keys: list[str]) -> Any:
+    """The type the schema declares at ``keys`` (None where it declares nothing)."""
+    annotation: Any = Scene
+    for key in keys:
+        if _is_model(annotation):
+            field = annotation.model_fields.get(key)
+            annotation = None if field is None else field.annotation
+        elif typing.get_origin(annotation) is dict:
+            annotation = typing.get_args(annotation)[1]
+        else:
+            return None
+    return annotation
+
+
+def _fields_at(keys: list[str]) -> list[str]:
+    model = _annotation(keys)
+    return list(model.model_fields) if _is_model(model) else []
+
+
+_MISSING = object()
+
+
+def _lookup(data: Any, keys: list[str]) -> Any:
+    for key in keys:
+        if not isinstance(data, Mapping) or key not in data:
+            return _MISSING
+        data = data[key]
+    return data
+
+
+def _problem(item: Mapping[str, Any], keys: list[str], data: dict, exact: bool) -> str:
+    kind = item["type"]
+    if kind == "extra_forbidden":
+        return _unknown_key(keys)
+    if kind == "missing" and exact:
+        return "required key is missing"
+    if kind == "setting":
+        return str(item["ctx"]["message"])
+    value = _lookup(data, keys)
+    value = item.get("input") if value is _MISSING else value
+    expected = _describe(_annotation(keys))
+    if expected is None:
+        return str(item["msg"])
+    return f"expected {expected}; got {value!r} ({type(value).__name__})"
+
+
+def _unknown_key(keys: list[str]) -> str:
+    key, parent = keys[-1], keys[:-1]
+    valid = _fields_at(parent)
+    close = difflib.get_close_matches(key, valid, n=1)
+    hint = f"did you mean {close[0]!r}?" if close else f"valid keys: {', '.join(valid)}"
+    return f"unknown key {key!r}; {hint}"
+
+
+_NAMES = {int: "an integer", float: "a finite number", bool: "true or false", str: "a string"}
+
+
+def _describe(annotation: Any) -> str | None:
+    """Plain words for a field's type: 'an integer', 'a list of 3 numbers', ..."""
+    if annotation in _NAMES:
+        return _NAMES[annotation]
+    if annotation is Path:
+        return "a path (a string)"
+    if _is_model(annotation):
+        return "a table"
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin in (typing.Union, types.UnionType):
+        words = [_describe(a) for a in args if a is not type(None)]
+        return " or ".join(w for w in words if w) or None
+    if origin is tuple and args and all(a is float for a in args):
+        return f"a list of {len(args)} finite numbers"
+    if origin is dict:
+        return "a table of numbers" if args[-1:] == (float,) else "a table"
+    return None

@@ -1,0 +1,309 @@
+"""The scene schema: one pydantic model shared by scene files, the Python API and CLI flags.
+
+Every section forbids unknown keys and is frozen. Values are checked by the objects they build —
+:class:`~incandescent.render.settings.RenderSettings`,
+:class:`~incandescent.imaging.pipeline.DisplaySettings`, :class:`~incandescent.camera.Camera`,
+:class:`~incandescent.volume.grid.Remap` and :class:`~incandescent.volume.grid.Volume` — so the
+rules live in one place; their ``ValueError``/``TypeError`` become pydantic errors located at the
+section. Relative paths are resolved by :mod:`incandescent.config.load`, not here.
+
+Sections and keys (defaults in brackets)::
+
+    [volume]            path (required), preset, preset_options = {name = number},
+                        absorption (constant κ, 1/m), voxel_size_m, origin_m = [x, y, z]
+    [volume.grids]      temperature, absorption, emission_scale, sodium_fraction, density, flame
+                        (role = grid name in the file; absent = found by alias)
+    [volume.temperature] offset, scale [0, 1] | range = [LOW, HIGH] (K); cutoff_K [0]
+    [camera]            eye, target, up, fov_deg, projection, ortho_height_m (absent = default view)
+    [render]            the RenderSettings fields
+    [display]           the DisplaySettings fields; space [= render.space]
+    [output]            path, overwrite [false], stats (JSON path), backend ["auto"]
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+from typing import TypeVar
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic_core import PydanticCustomError
+
+from incandescent.camera.camera import Camera, default_camera
+from incandescent.colorimetry.rgb_spaces import rgb_space
+from incandescent.imaging.pipeline import DisplaySettings
+from incandescent.render.backends import BACKENDS
+from incandescent.render.settings import RenderSettings
+from incandescent.volume.grid import Remap, Volume
+from incandescent.volume.presets import ROLES, preset_parameters
+
+__all__ = [
+    "CameraSection",
+    "DisplaySection",
+    "GridNames",
+    "OutputSection",
+    "RenderSection",
+    "Scene",
+    "TemperatureMap",
+    "VolumeSection",
+]
+
+T = TypeVar("T")
+Vec3 = tuple[float, float, float]
+BACKEND_CHOICES = ("auto", *BACKENDS)
+
+
+def _checked(build: Callable[[], T]) -> T:
+    """Run a constructor; its ValueError/TypeError becomes one pydantic error with its message."""
+    try:
+        return build()
+    except (ValueError, TypeError) as error:
+        raise PydanticCustomError("setting", "{message}", {"message": str(error)}) from None
+
+
+def _fail(message: str) -> PydanticCustomError:
+    return PydanticCustomError("setting", "{message}", {"message": message})
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
+
+
+class GridNames(_Section):
+    """Role → grid name in the volume file; a role left out is found through the aliases of
+    :data:`incandescent.volume.presets.ROLE_ALIASES`."""
+
+    temperature: str | None = None
+    absorption: str | None = None
+    emission_scale: str | None = None
+    sodium_fraction: str | None = None
+    density: str | None = None
+    flame: str | None = None
+
+    def given(self) -> dict[str, str]:
+        """The roles named explicitly."""
+        return {role: getattr(self, role) for role in ROLES if getattr(self, role) is not None}
+
+
+class TemperatureMap(_Section):
+    """Raw field → kelvin: ``T = (raw − offset)·scale``, or ``range = [LOW, HIGH]`` mapping a
+    normalised 0..1 field linearly to LOW..HIGH K; voxels below ``cutoff_K`` are vacuum."""
+
+    offset: float | None = None
+    scale: float | None = None
+    cutoff_K: float = 0.0
+    range: tuple[float, float] | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> TemperatureMap:
+        if self.range is not None:
+            given = [k for k in ("offset", "scale") if getattr(self, k) is not None]
+            if given:
+                raise _fail(
+                    f"give range = [LOW, HIGH] or offset/scale, not both (got range and "
+                    f"{' and '.join(given)})"
+                )
+            low, high = self.range
+            if not 0.0 <= low < high:
+                raise _fail(
+                    f"range = [LOW, HIGH] needs 0 <= LOW < HIGH (K); got {list(self.range)}"
+                )
+        _checked(self.remap)
+        return self
+
+    @property
+    def is_identity(self) -> bool:
+        """True when no offset, scale or range is given (raw values are kelvin)."""
+        return self.range is None and self.offset is None and self.scale is None
+
+    def remap(self) -> Remap:
+        if self.range is not None:
+            low, high = self.range
+            return Remap(offset=-low / (high - low), scale=high - low, cutoff_K=self.cutoff_K)
+        offset = 0.0 if self.offset is None else self.offset
+        scale = 1.0 if self.scale is None else self.scale
+        return Remap(offset=offset, scale=scale, cutoff_K=self.cutoff_K)
+
+
+class VolumeSection(_Section):
+    """Where the grids come from and how they become kelvin, κ and a world placement."""
+
+    path: Path
+    grids: GridNames = Field(default_factory=GridNames)
+    temperature: TemperatureMap = Field(default_factory=TemperatureMap)
+    preset: str | None = None
+    preset_options: dict[str, float] = Field(default_factory=dict)
+    absorption: float | None = None
+    voxel_size_m: float | None = None
+    origin_m: Vec3 | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> VolumeSection:
+        if self.preset is None and self.preset_options:
+            raise _fail("preset_options given without a preset")
+        if self.preset is not None:
+            _checked(lambda: preset_parameters(self.preset or "", self.preset_options))
+            if not self.temperature.is_identity:
+                raise _fail(
+                    f"preset {self.preset!r} maps temperature itself; remove temperature.offset/"
+                    "scale/range (temperature.cutoff_K may stay)"
+                )
+        if self.absorption is not None and self.grids.absorption is not None:
+            raise _fail(
+                "give absorption (a constant, 1/m) or grids.absorption (a grid name), not both"
+            )
+        one_voxel = np.ones((1, 1, 1))
+        _checked(
+            lambda: Volume.from_arrays(
+                one_voxel,
+                absorption=self.absorption,
+                voxel_size_m=self.voxel_size_m,
+                origin_m=self.origin_m,
+                source="volume",
+            )
+        )
+        return self
+
+
+class CameraSection(_Section):
+    """A look-at camera; keys left out come from the default three-quarter view of the volume."""
+
+    eye: Vec3 | None = None
+    target: Vec3 | None = None
+    up: Vec3 | None = None
+    fov_deg: float | None = None
+    projection: str | None = None
+    ortho_height_m: float | None = None
+
+    def given(self) -> dict[str, object]:
+        return {k: v for k, v in self.__dict__.items() if v is not None}
+
+    @model_validator(mode="after")
+    def _check(self) -> CameraSection:
+        given = self.given()
+        if self.eye is not None and self.target is not None:
+            _checked(lambda: Camera(**given))  # type: ignore[arg-type]
+        else:  # scalars only: the view is not known until the volume is
+            scalars = {k: v for k, v in given.items() if k not in ("eye", "target", "up")}
+            _checked(lambda: Camera(eye=(0.0, 0.0, 1.0), **scalars))  # type: ignore[arg-type]
+        return self
+
+
+def _dataclass_default(cls: type, name: str) -> object:
+    return cls.__dataclass_fields__[name].default  # type: ignore[attr-defined]
+
+
+class RenderSection(_Section):
+    """The fields of :class:`~incandescent.render.settings.RenderSettings` (same names, defaults
+    and rules)."""
+
+    width: int = RenderSettings.width
+    height: int = RenderSettings.height
+    step_voxels: float = RenderSettings.step_voxels
+    supersample: int = RenderSettings.supersample
+    jitter: bool = RenderSettings.jitter
+    seed: int = RenderSettings.seed
+    min_transmittance: float = RenderSettings.min_transmittance
+    skip_empty: bool = RenderSettings.skip_empty
+    macrocell_voxels: int = RenderSettings.macrocell_voxels
+    space: str = RenderSettings.space
+    observer: str = RenderSettings.observer
+    constants: str = RenderSettings.constants
+    brightness: str = RenderSettings.brightness
+    paper_exponent: float = RenderSettings.paper_exponent
+    paper_gain: float = RenderSettings.paper_gain
+    paper_min_K: float = RenderSettings.paper_min_K
+
+    @model_validator(mode="after")
+    def _check(self) -> RenderSection:
+        _checked(self.settings)
+        _checked(lambda: rgb_space(self.space))
+        return self
+
+    def settings(self) -> RenderSettings:
+        return RenderSettings(**self.model_dump())
+
+
+class DisplaySection(_Section):
+    """The fields of :class:`~incandescent.imaging.pipeline.DisplaySettings`; ``space`` defaults
+    to ``render.space``."""
+
+    space: str | None = None
+    white_balance: str | float | None = None
+    exposure_ev: float = DisplaySettings.exposure_ev
+    auto_exposure: bool = DisplaySettings.auto_exposure
+    auto_percentile: float = DisplaySettings.auto_percentile
+    iso: float | None = None
+    shutter_s: float | None = None
+    f_number: float | None = None
+    tonemap: str = DisplaySettings.tonemap
+    gamut: str = DisplaySettings.gamut
+    bits: int = DisplaySettings.bits
+
+    @model_validator(mode="after")
+    def _check(self) -> DisplaySection:
+        _checked(lambda: self.settings("srgb"))
+        return self
+
+    def settings(self, default_space: str) -> DisplaySettings:
+        fields = self.model_dump()
+        fields["space"] = self.space or default_space
+        return DisplaySettings(**fields)
+
+
+class OutputSection(_Section):
+    """Where results go; ``backend`` is ``auto`` or one of the render backends."""
+
+    path: Path | None = None
+    overwrite: bool = False
+    stats: Path | None = None
+    backend: str = "auto"
+
+    @model_validator(mode="after")
+    def _check(self) -> OutputSection:
+        if self.backend not in BACKEND_CHOICES:
+            raise _fail(
+                f"unknown backend {self.backend!r}; expected one of: {', '.join(BACKEND_CHOICES)}"
+            )
+        return self
+
+
+class Scene(_Section):
+    """A validated scene: build with :func:`incandescent.config.load_scene` or
+    :func:`incandescent.config.scene_from_dict`."""
+
+    volume: VolumeSection
+    camera: CameraSection = Field(default_factory=CameraSection)
+    render: RenderSection = Field(default_factory=RenderSection)
+    display: DisplaySection = Field(default_factory=DisplaySection)
+    output: OutputSection = Field(default_factory=OutputSection)
+
+    def render_settings(self) -> RenderSettings:
+        return self.render.settings()
+
+    def display_settings(self) -> DisplaySettings:
+        """Display settings; the RGB space is ``display.space`` or else ``render.space``."""
+        return self.display.settings(self.render.space)
+
+    def remap(self) -> Remap:
+        """The temperature remap (with a preset: identity plus ``cutoff_K``)."""
+        return self.volume.temperature.remap()
+
+    def camera_or_none(self) -> Camera | None:
+        """The camera when the scene fixes ``eye`` and ``target``; else None (the view depends on
+        the volume: use :meth:`camera_for`)."""
+        if self.camera.eye is None or self.camera.target is None:
+            return None
+        return Camera(**self.camera.given())  # type: ignore[arg-type]
+
+    def camera_for(self, volume: Volume) -> Camera:
+        """The scene's camera, with keys left out taken from the default view of ``volume``
+        (framing its content box, as ``incandescent render`` does without ``--eye``)."""
+        fixed = self.camera_or_none()
+        if fixed is not None:
+            return fixed
+        given = self.camera.given()
+        fov = given.get("fov_deg", _dataclass_default(Camera, "fov_deg"))
+        base = default_camera(volume.content_bounds_m, fov_deg=fov)  # type: ignore[arg-type]
+        return base.replace(**given)
