@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -127,9 +128,9 @@ def test_render_refuses_to_overwrite_before_rendering(npy, tmp_path):
             "bad.npy: not a readable",
         ),
         (
-            lambda d: np.savez(d / "x.npz", heat=np.ones((2, 2, 2))),
+            lambda d: np.savez(d / "x.npz", foo=np.ones((2, 2, 2))),
             ["x.npz"],
-            "no grid named 'temperature'; the file has: heat",
+            "no temperature grid: looked for temperature, heat, temp; the file has: foo",
         ),
         (lambda d: None, ["missing.npy"], "missing.npy: no such volume file"),
         (
@@ -250,9 +251,11 @@ def test_temperature_range_maps_a_normalised_field(tmp_path):
     assert result.exit_code == 0, result.output
     assert json.loads(stats.read_text())["max_luminance_cd_m2"] > 0
     bad = _run(*args, "--temperature-range", "3000:1000", "--overwrite")
-    assert bad.exit_code == 2 and "--temperature-range must be LOW:HIGH" in bad.output
+    assert bad.exit_code == 2
+    assert "range = [LOW, HIGH] needs 0 <= LOW < HIGH" in " ".join(bad.output.split())
     both = _run(*args, "--temperature-range", "0:1", "--scale", 2, "--overwrite")
-    assert both.exit_code == 2 and "replaces --offset/--scale" in both.output
+    assert both.exit_code == 2
+    assert "give range = [LOW, HIGH] or offset/scale, not both" in " ".join(both.output.split())
 
 
 def test_animate_a_sequence_of_files_resumes(tmp_path):
@@ -271,3 +274,27 @@ def test_animate_a_sequence_of_files_resumes(tmp_path):
     assert "0 rendered, 3 reused" in " ".join(again.output.split())
     missing = _run("animate", str(tmp_path / "nothing_*.npy"), "-o", tmp_path / "x.mp4")
     assert missing.exit_code == 2 and "no files match" in missing.output
+
+
+def test_render_scene_file_with_flag_overrides(tmp_path):
+    import shutil
+
+    root = Path(__file__).resolve().parents[1] / "examples"
+    for name in ("flame.toml", "flame.npz"):
+        shutil.copy(root / name, tmp_path / name)
+    result = _run("render", tmp_path / "flame.toml", "--width", 32, "--height", 48)
+    assert result.exit_code == 0, result.output
+    assert Image.open(tmp_path / "flame.png").size == (32, 48)  # [output] path, beside the file
+    exr = tmp_path / "flame.exr"
+    result = _run("render", tmp_path / "flame.toml", "-o", exr, "--width", 8, "--height", 8)
+    assert result.exit_code == 0, result.output
+    assert read_exr(exr)[0].shape == (8, 8, 3)
+
+
+def test_scene_file_errors_name_the_key(tmp_path):
+    scene = tmp_path / "s.toml"
+    scene.write_text('[volume]\npath = "v.npy"\n[render]\nwidht = 3\n')
+    result = _run("render", scene)
+    assert result.exit_code == 2
+    text = " ".join(result.output.split())
+    assert "render.widht: unknown key 'widht'; did you mean 'width'?" in text

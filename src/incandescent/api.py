@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 
 from incandescent.camera import Camera, default_camera
+from incandescent.config import GridNames, VolumeSection
 from incandescent.imaging import DisplaySettings, to_display
 from incandescent.io.output import save_image, write_json
-from incandescent.io.volumes import load_grids
+from incandescent.io.volumes import open_grids
 from incandescent.render import HDRImage, RenderSettings, render
 from incandescent.volume import Remap, Volume
+from incandescent.volume.presets import apply_preset, resolve_grid_name
 
 __all__ = [
     "Camera",
@@ -20,6 +22,7 @@ __all__ = [
     "Volume",
     "camera_from",
     "load_volume",
+    "volume_from_section",
     "render",
     "save_image",
     "to_display",
@@ -27,25 +30,62 @@ __all__ = [
 ]
 
 
+OPTIONAL_ROLES = ("absorption", "emission_scale", "sodium_fraction")
+PRESET_ROLES = ("temperature", "flame", "density")
+
+
 def load_volume(
     path: str | Path,
-    temperature_grid: str = "temperature",
+    temperature_grid: str | None = None,
     absorption: float | None = None,
     voxel_size_m: float | None = None,
     remap: Remap | None = None,
 ) -> Volume:
-    """Read a ``.npy``/``.npz`` file into a validated Volume; a constant ``absorption`` overrides
-    the file's absorption grid."""
-    grids = load_grids(path, temperature_grid)
-    kappa = absorption if absorption is not None else grids.absorption
+    """Read a volume file (.npy, .npz, .vdb, .nvdb) into a validated Volume. A constant
+    ``absorption`` (1/m) overrides the file's absorption grid."""
+    spec = VolumeSection(
+        path=Path(path),
+        grids=GridNames(temperature=temperature_grid),
+        absorption=absorption,
+        voxel_size_m=voxel_size_m,
+    )
+    return volume_from_section(spec, remap or Remap())
+
+
+def _grid_name(role: str, names: dict[str, str], available: tuple[str, ...], required: bool):
+    if role in names:
+        return names[role]
+    if role in OPTIONAL_ROLES:
+        return role if role in available else None
+    return resolve_grid_name(role, available, required=required)
+
+
+def volume_from_section(spec: VolumeSection, remap: Remap) -> Volume:
+    """The Volume a scene's ``[volume]`` section describes: file, grid roles, preset, remap."""
+    source = open_grids(spec.path)
+    names = spec.grids.given()
+    core_roles = PRESET_ROLES if spec.preset else ("temperature",)
+    roles = {r: _grid_name(r, names, source.names, not spec.preset) for r in core_roles}
+    for role in OPTIONAL_ROLES:
+        roles[role] = _grid_name(role, names, source.names, required=False)
+    if spec.absorption is not None:
+        roles["absorption"] = None
+    grids = source.read(sorted({n for n in roles.values() if n}))
+    by_role = {role: grids[name] for role, name in roles.items() if name}
+    if spec.preset:
+        out = apply_preset(spec.preset, grids, spec.preset_options, names)
+        temperature, kappa = out["temperature_K"], out["absorption_per_m"]
+    else:
+        temperature, kappa = by_role["temperature"], by_role.get("absorption")
     return Volume.from_arrays(
-        grids.temperature,
-        kappa,
-        grids.emission_scale,
-        voxel_size_m,
+        temperature,
+        spec.absorption if spec.absorption is not None else kappa,
+        by_role.get("emission_scale"),
+        spec.voxel_size_m or source.voxel_size_m,
+        spec.origin_m or source.origin_m,
         remap=remap,
-        source=str(grids.path),
-        sodium_fraction=grids.sodium_fraction,
+        source=str(source.path),
+        sodium_fraction=by_role.get("sodium_fraction"),
     )
 
 

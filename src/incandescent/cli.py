@@ -63,87 +63,142 @@ def version() -> None:
 
 @app.command()
 def render(
-    volume: Path = typer.Argument(
-        ..., help="Volume file: .npy (temperature, K) or .npz (named grids)."
+    source: Path = typer.Argument(
+        ...,
+        help="A volume file (.npy, .npz, .vdb, .nvdb) or a scene file (.toml, .json) whose values "
+        "the options below override.",
     ),
-    output: Path = typer.Option(..., "--output", "-o", help="Output image: .exr (HDR) or .png."),
-    width: int = typer.Option(512, help="Image width in pixels."),
-    height: int = typer.Option(512, help="Image height in pixels."),
-    step: float = typer.Option(0.5, help="Ray-march step in voxels."),
-    supersample: int = typer.Option(1, help="N for N×N rays per pixel."),
-    seed: int = typer.Option(0, help="Jitter seed."),
+    output: Path = typer.Option(None, "--output", "-o", help="Output image: .exr (HDR) or .png."),
+    width: int = typer.Option(None, help="Image width in pixels [512]."),
+    height: int = typer.Option(None, help="Image height in pixels [512]."),
+    step: float = typer.Option(None, help="Ray-march step in voxels [0.5]."),
+    supersample: int = typer.Option(None, help="N for N×N rays per pixel [1]."),
+    seed: int = typer.Option(None, help="Jitter seed [0]."),
     absorption: float = typer.Option(
         None,
-        help="Constant absorption κ in 1/m (default: grid in the"
-        " .npz, else 1/L where T >= 500 K, L = the box's largest side).",
+        help="Constant absorption κ in 1/m [the file's absorption grid, else 1/L where T >= 500 K,"
+        " L = the box's largest side].",
     ),
-    voxel_size: float = typer.Option(None, help="Voxel side in m (default: largest side 1 m)."),
+    voxel_size: float = typer.Option(None, help="Voxel side in m [file's, else largest side 1 m]."),
     temperature_grid: str = typer.Option(
-        "temperature", help="Name of the temperature grid (.npz)."
+        None, help="Name of the temperature grid [temperature, heat or temp]."
     ),
-    offset: float = typer.Option(0.0, help="Temperature remap: T = (raw − offset)·scale."),
-    scale: float = typer.Option(1.0, help="Temperature remap scale (K per raw unit)."),
-    cutoff: float = typer.Option(0.0, help="Voxels below this many K are vacuum."),
+    preset: str = typer.Option(None, help="Source preset: blender | houdini | embergen."),
+    offset: float = typer.Option(None, help="Temperature remap: T = (raw − offset)·scale [0]."),
+    scale: float = typer.Option(None, help="Temperature remap scale, K per raw unit [1]."),
+    cutoff: float = typer.Option(None, help="Voxels below this many K are vacuum [0]."),
     temperature_range: str = typer.Option(
         None, help="LOW:HIGH — map a normalised 0..1 field linearly to LOW..HIGH K."
     ),
-    eye: str = typer.Option(None, help="Camera position X,Y,Z in m (default: three-quarter view)."),
-    target: str = typer.Option(None, help="Point looked at, X,Y,Z in m (default: box centre)."),
-    fov: float = typer.Option(40.0, help="Vertical field of view in degrees."),
+    eye: str = typer.Option(None, help="Camera position X,Y,Z in m [three-quarter view]."),
+    target: str = typer.Option(None, help="Point looked at, X,Y,Z in m [centre of the gas]."),
+    fov: float = typer.Option(None, help="Vertical field of view in degrees [40]."),
     backend: str = typer.Option(
-        "auto", help="auto | cpu | cuda | reference (env INCANDESCENT_BACKEND)."
+        None, help="auto | cpu | cuda | reference [auto; env INCANDESCENT_BACKEND]."
     ),
-    exposure: float = typer.Option(0.0, help="Exposure compensation in EV (PNG only)."),
+    exposure: float = typer.Option(None, help="Exposure compensation in EV (PNG) [0]."),
     auto_exposure: bool = typer.Option(
-        True, help="Auto exposure from the 99th luminance percentile (PNG)."
+        None, "--auto-exposure/--no-auto-exposure", help="Auto exposure (PNG) [on]."
     ),
-    tonemap: str = typer.Option("filmic", help="PNG tone map: clip | reinhard | filmic."),
-    space: str = typer.Option("srgb", help="RGB space: srgb | rec2020 | display_p3 | acescg."),
+    tonemap: str = typer.Option(None, help="PNG tone map: clip | reinhard | filmic [filmic]."),
+    space: str = typer.Option(None, help="RGB space: srgb | rec2020 | display_p3 | acescg."),
     brightness: str = typer.Option(
-        "physical",
-        help="physical (absolute Planck, emission–absorption) | paper (the 2011 method).",
+        None, help="physical (absolute Planck, emission–absorption) | paper (the 2011 method)."
     ),
     sodium: float = typer.Option(None, help="Paper mode: constant sodium fraction 0..1."),
-    paper_exponent: float = typer.Option(1.5, help="Paper mode: brightness ∝ T^exponent."),
+    paper_exponent: float = typer.Option(None, help="Paper mode: brightness ∝ T^exponent [1.5]."),
     stats: Path = typer.Option(None, help="Write render statistics (JSON) to this file."),
-    overwrite: bool = typer.Option(False, help="Replace existing output files."),
+    overwrite: bool = typer.Option(None, "--overwrite", help="Replace existing output files."),
 ) -> None:
-    """Render a volume file to an image."""
+    """Render a volume file, or a scene file, to an image."""
     from incandescent import api
 
+    flags = dict(locals())
     try:
-        grids = api.load_volume(
-            volume,
-            temperature_grid,
-            absorption,
-            voxel_size,
-            _remap(offset, scale, cutoff, temperature_range),
-        )
-        camera = api.camera_from(grids, _vector(eye, "eye"), _vector(target, "target"), fov)
-        settings = api.RenderSettings(
-            width=width,
-            height=height,
-            step_voxels=step,
-            supersample=supersample,
-            seed=seed,
-            space=space,
-            brightness=brightness,
-            paper_exponent=paper_exponent,
-        )
+        scene = _scene(source, _overrides(flags))
+        volume = api.volume_from_section(scene.volume, scene.remap())
         if sodium is not None:
-            grids = grids.with_sodium(sodium)
-        display = api.DisplaySettings(
-            space=space, exposure_ev=exposure, auto_exposure=auto_exposure, tonemap=tonemap
-        )
-        _check_outputs([output, stats], overwrite)
+            volume = volume.with_sodium(sodium)
+        out = scene.output
+        if out.path is None:
+            raise ValueError("no output: give -o OUT.exr|.png or [output] path in the scene file")
+        _check_outputs([out.path, out.stats], out.overwrite)
         start = time.perf_counter()
-        image = api.render(grids, camera, settings, backend=backend)
-        written = [api.save_image(image, output, display, overwrite=overwrite)]
-        if stats is not None:
-            written.append(api.write_json(stats, _stats(image, start), overwrite=overwrite))
+        image = api.render(volume, scene.camera_for(volume), scene.render_settings(), out.backend)
+        display = scene.display_settings()
+        written = [api.save_image(image, out.path, display, overwrite=out.overwrite)]
+        if out.stats is not None:
+            stats_data = _stats(image, start)
+            written.append(api.write_json(out.stats, stats_data, overwrite=out.overwrite))
     except (ValueError, TypeError, FileNotFoundError, FileExistsError, RuntimeError) as error:
         raise _fail(str(error)) from None
     _summary(image, written)
+
+
+SCENE_SUFFIXES = (".toml", ".json")
+
+
+def _scene(source: Path, overrides: dict):
+    """The scene a CLI call describes: a scene file with the flags over it, or a volume file."""
+    from incandescent.config import load_scene, scene_from_dict
+
+    if source.suffix.lower() in SCENE_SUFFIXES:
+        return load_scene(source, overrides)
+    return scene_from_dict({"volume": {"path": str(source)}}, None, overrides, source=str(source))
+
+
+def _overrides(f: dict) -> dict:
+    """Nested scene keys for the flags that were given (None = not given)."""
+    low_high = None
+    if f["temperature_range"] is not None:
+        low, _, high = f["temperature_range"].partition(":")
+        try:
+            low_high = [float(low), float(high)]
+        except ValueError:
+            raise _fail(
+                f"--temperature-range must be LOW:HIGH in K (e.g. 800:2200); "
+                f"got {f['temperature_range']!r}"
+            ) from None
+    return {
+        "volume": {
+            "absorption": f["absorption"],
+            "voxel_size_m": f["voxel_size"],
+            "preset": f["preset"],
+            "grids": {"temperature": f["temperature_grid"]},
+            "temperature": {
+                "offset": f["offset"],
+                "scale": f["scale"],
+                "cutoff_K": f["cutoff"],
+                "range": low_high,
+            },
+        },
+        "camera": {
+            "eye": _vector(f["eye"], "eye"),
+            "target": _vector(f["target"], "target"),
+            "fov_deg": f["fov"],
+        },
+        "render": {
+            "width": f["width"],
+            "height": f["height"],
+            "step_voxels": f["step"],
+            "supersample": f["supersample"],
+            "seed": f["seed"],
+            "space": f["space"],
+            "brightness": f["brightness"],
+            "paper_exponent": f["paper_exponent"],
+        },
+        "display": {
+            "exposure_ev": f["exposure"],
+            "auto_exposure": f["auto_exposure"],
+            "tonemap": f["tonemap"],
+        },
+        "output": {
+            "path": f["output"],
+            "stats": f["stats"],
+            "overwrite": f["overwrite"],
+            "backend": f["backend"],
+        },
+    }
 
 
 def _remap(offset: float, scale: float, cutoff: float, temperature_range: str | None):
