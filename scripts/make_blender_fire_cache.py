@@ -1,0 +1,117 @@
+"""Bake a small Blender Mantaflow fire to an OpenVDB cache, headless.
+
+Run with Blender's own Python (Debian 12's ``blender`` package is Blender 3.4.1)::
+
+    blender -b --factory-startup --python scripts/make_blender_fire_cache.py -- OUTDIR \
+        [--frames 20] [--resolution 64] [--compression BLOSC|ZIP|NONE] [--precision 16|32]
+
+The scene: a gas domain 1 × 1 × 2 m (tall in z) at ``--resolution`` cells along its longest side
+(64 → 32 × 32 × 64 voxels) and a small cube near the floor emitting FIRE (flame + fuel + heat),
+baked for ``--frames`` frames. The cache lands in ``OUTDIR/data/fluid_data_####.vdb`` (one file
+per frame with all grids: density, flame, fuel, heat, velocity, ...). Blender's defaults are
+BLOSC compression and 16-bit (half float) precision.
+
+Order matters in Blender 3.4: the flow object must be a FIRE (or BOTH) emitter *before* the
+domain's cache type and format are set, otherwise the domain never allocates the fire grids
+(flame, fuel, react) and the cache has smoke only.
+
+This script is not imported by the package; it documents how ``tests/data/*.vdb`` was made.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import bpy  # type: ignore[import-not-found]  # Blender's own module
+
+
+def parse_args() -> argparse.Namespace:
+    argv = sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else []
+    parser = argparse.ArgumentParser(prog="make_blender_fire_cache.py")
+    parser.add_argument("outdir", type=Path)
+    parser.add_argument("--frames", type=int, default=20)
+    parser.add_argument("--resolution", type=int, default=64, help="cells on the longest side")
+    parser.add_argument("--compression", default="BLOSC", choices=["BLOSC", "ZIP", "NONE"])
+    parser.add_argument("--precision", default="16", choices=["16", "32"])
+    return parser.parse_args(argv)
+
+
+def clear_scene() -> None:
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def add_domain() -> bpy.types.Object:
+    """A 1 × 1 × 2 m box standing on z = 0 (Blender is z-up)."""
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 1.0))
+    domain = bpy.context.active_object
+    domain.name = "FireDomain"
+    domain.scale = (1.0, 1.0, 2.0)
+    bpy.ops.object.transform_apply(location=False, rotation=False, scale=True)
+    return domain
+
+
+def add_fire_flow() -> bpy.types.Object:
+    """A small cube near the floor that emits fire (flame, fuel and heat)."""
+    bpy.ops.mesh.primitive_cube_add(size=0.25, location=(0.0, 0.0, 0.2))
+    flow = bpy.context.active_object
+    flow.name = "FireEmitter"
+    modifier = flow.modifiers.new("Fluid", "FLUID")
+    modifier.fluid_type = "FLOW"
+    settings = modifier.flow_settings
+    settings.flow_type = "FIRE"
+    settings.flow_behavior = "INFLOW"
+    settings.flow_source = "MESH"
+    settings.fuel_amount = 1.5
+    settings.temperature = 1.5
+    settings.surface_distance = 1.0
+    return flow
+
+
+def configure_domain(domain: bpy.types.Object, args: argparse.Namespace) -> None:
+    modifier = domain.modifiers.new("Fluid", "FLUID")
+    modifier.fluid_type = "DOMAIN"
+    settings = modifier.domain_settings
+    settings.domain_type = "GAS"
+    settings.resolution_max = args.resolution
+    settings.use_adaptive_domain = False
+    settings.use_noise = False
+    # Cache settings last (after the FIRE flow exists), see the module docstring.
+    settings.cache_directory = str(args.outdir.resolve())
+    settings.cache_type = "ALL"
+    settings.cache_data_format = "OPENVDB"
+    settings.openvdb_cache_compress_type = args.compression
+    settings.openvdb_data_depth = args.precision
+    settings.cache_frame_start = 1
+    settings.cache_frame_end = args.frames
+
+
+def bake(domain: bpy.types.Object, frames: int) -> None:
+    scene = bpy.context.scene
+    scene.frame_start = 1
+    scene.frame_end = frames
+    bpy.context.view_layer.objects.active = domain
+    domain.select_set(True)
+    with bpy.context.temp_override(active_object=domain, object=domain):
+        result = bpy.ops.fluid.bake_all()
+    if result != {"FINISHED"}:
+        raise SystemExit(f"fluid.bake_all returned {result}")
+
+
+def main() -> None:
+    args = parse_args()
+    args.outdir.mkdir(parents=True, exist_ok=True)
+    clear_scene()
+    domain = add_domain()
+    add_fire_flow()  # before the domain's cache settings
+    configure_domain(domain, args)
+    bake(domain, args.frames)
+    written = sorted(args.outdir.rglob("*.vdb"))
+    print(f"baked {len(written)} .vdb files under {args.outdir}")
+    for path in written:
+        print(f"  {path} ({path.stat().st_size} bytes)")
+
+
+if __name__ == "__main__":
+    main()
