@@ -298,3 +298,27 @@ def test_scene_file_errors_name_the_key(tmp_path):
     assert result.exit_code == 2
     text = " ".join(result.output.split())
     assert "render.widht: unknown key 'widht'; did you mean 'width'?" in text
+
+
+def test_render_a_blender_fire_vdb_with_the_blender_preset(tmp_path):
+    pytest.importorskip("tinyvdb")
+    cache = Path(__file__).resolve().parent / "data" / "blender_fire_0010.vdb"
+    out, stats = tmp_path / "fire.exr", tmp_path / "s.json"
+    result = _run(
+        "render",
+        cache,
+        "--preset",
+        "blender",
+        "-o",
+        out,
+        "--width",
+        24,
+        "--height",
+        32,
+        "--stats",
+        stats,
+    )
+    assert result.exit_code == 0, result.output
+    rgb = read_exr(out)[0]
+    assert np.isfinite(rgb).all() and rgb.max() > 0
+    assert json.loads(stats.read_text())["absorption"] == "grid"  # κ from Blender's density

@@ -70,7 +70,8 @@ def volume_from_section(spec: VolumeSection, remap: Remap) -> Volume:
         roles[role] = _grid_name(role, names, source.names, required=False)
     if spec.absorption is not None:
         roles["absorption"] = None
-    grids = source.read(sorted({n for n in roles.values() if n}))
+    read = source.read(sorted({n for n in roles.values() if n}))
+    grids = read.arrays
     by_role = {role: grids[name] for role, name in roles.items() if name}
     if spec.preset:
         out = apply_preset(spec.preset, grids, spec.preset_options, names)
@@ -81,8 +82,8 @@ def volume_from_section(spec: VolumeSection, remap: Remap) -> Volume:
         temperature,
         spec.absorption if spec.absorption is not None else kappa,
         by_role.get("emission_scale"),
-        spec.voxel_size_m or source.voxel_size_m,
-        spec.origin_m or source.origin_m,
+        spec.voxel_size_m or read.voxel_size_m,
+        spec.origin_m or read.origin_m,
         remap=remap,
         source=str(source.path),
         sodium_fraction=by_role.get("sodium_fraction"),

@@ -12,7 +12,7 @@ from __future__ import annotations
 import difflib
 import json
 import re
-import sys
+import tomllib
 import types
 import typing
 from collections.abc import Mapping
@@ -22,11 +22,6 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from incandescent.config.schema import Scene
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 __all__ = ["SUFFIXES", "SceneError", "load_scene", "merge_overrides", "scene_from_dict"]
 

@@ -22,18 +22,22 @@ SUFFIXES = NUMPY_SUFFIXES + VDB_SUFFIXES
 
 
 @dataclass(frozen=True)
-class GridSource:
-    """A volume file's grids: their names, and a reader for the ones a render needs.
+class Grids:
+    """Grids read on one common box of voxels, and that box's placement where the file has one
+    (VDB: world position of the corner of voxel (0, 0, 0) and voxel side, m), else None."""
 
-    ``origin_m`` and ``voxel_size_m`` come from the file where it stores a transform (VDB), else
-    None. ``read(names)`` returns the named grids on one common box of voxels.
-    """
+    arrays: dict[str, NDArray]
+    origin_m: tuple[float, float, float] | None = None
+    voxel_size_m: float | None = None
+
+
+@dataclass(frozen=True)
+class GridSource:
+    """A volume file's readable grids by name, and a reader for the ones a render needs."""
 
     path: Path
     names: tuple[str, ...]
-    read: Callable[[Iterable[str]], dict[str, NDArray]]
-    origin_m: tuple[float, float, float] | None = None
-    voxel_size_m: float | None = None
+    read: Callable[[Iterable[str]], Grids]
 
 
 def _np_load(path: Path):
@@ -43,8 +47,8 @@ def _np_load(path: Path):
         raise ValueError(f"{path}: not a readable {path.suffix} file ({error})") from None
 
 
-def _npz_reader(path: Path, data) -> Callable[[Iterable[str]], dict[str, NDArray]]:
-    def read(names: Iterable[str]) -> dict[str, NDArray]:
+def _npz_reader(path: Path, data) -> Callable[[Iterable[str]], Grids]:
+    def read(names: Iterable[str]) -> Grids:
         out = {}
         for name in names:
             try:
@@ -55,7 +59,7 @@ def _npz_reader(path: Path, data) -> Callable[[Iterable[str]], dict[str, NDArray
                 ) from None
             except (ValueError, OSError, zipfile.BadZipFile) as error:
                 raise ValueError(f"{path}: grid {name!r} cannot be read ({error})") from None
-        return out
+        return Grids(out)
 
     return read
 
@@ -72,21 +76,35 @@ def open_grids(path: str | Path) -> GridSource:
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such volume file")
     if suffix in VDB_SUFFIXES:
-        from incandescent.io.vdb import open_vdb
-
-        return open_vdb(path)
+        return _vdb_source(path)
     data = _np_load(path)
     if isinstance(data, np.ndarray):
         return GridSource(path, ("temperature",), _npy_reader(path, data))
     return GridSource(path, tuple(data.files), _npz_reader(path, data))
 
 
-def _npy_reader(path: Path, data: NDArray) -> Callable[[Iterable[str]], dict[str, NDArray]]:
-    def read(names: Iterable[str]) -> dict[str, NDArray]:
+def _npy_reader(path: Path, data: NDArray) -> Callable[[Iterable[str]], Grids]:
+    def read(names: Iterable[str]) -> Grids:
         names = list(names)
         other = [n for n in names if n != "temperature"]
         if other:
             raise ValueError(f"{path}: a .npy file holds one grid (temperature), not {other[0]!r}")
-        return {n: data for n in names}
+        return Grids({n: data for n in names})
 
     return read
+
+
+def _vdb_source(path: Path) -> GridSource:
+    """OpenVDB/NanoVDB through :mod:`incandescent.io.vdb`: the float grids it can read, densified
+    onto the union of their active boxes, placed by the file's transform."""
+    from incandescent.io import vdb
+
+    readable = tuple(g.name for g in vdb.list_grids(path) if g.unreadable is None)
+
+    def read(names: Iterable[str]) -> Grids:
+        dense = vdb.read_grids(path, list(names))
+        first = next(iter(dense.values()))
+        arrays = {name: grid.values for name, grid in dense.items()}
+        return Grids(arrays, first.origin_m, first.voxel_size_m)
+
+    return GridSource(path, readable, read)
