@@ -322,3 +322,22 @@ def test_render_a_blender_fire_vdb_with_the_blender_preset(tmp_path):
     rgb = read_exr(out)[0]
     assert np.isfinite(rgb).all() and rgb.max() > 0
     assert json.loads(stats.read_text())["absorption"] == "grid"  # κ from Blender's density
+
+
+def test_info_lists_grids_and_warns_when_temperature_is_not_kelvin(tmp_path):
+    path = tmp_path / "g.npz"
+    np.savez(path, temperature=np.linspace(0, 2, 8).reshape(2, 2, 2), density=np.ones((2, 2, 2)))
+    result = _run("info", path)
+    assert result.exit_code == 0, result.output
+    text = " ".join(result.output.split())
+    assert "temperature" in text and "density" in text and "(2, 2, 2)" in text
+    assert "grid 'temperature' has max 2 < 300: probably not kelvin" in text
+    assert _run("info", tmp_path / "none.vdb").exit_code == 2
+
+
+def test_info_on_a_blender_vdb_names_unreadable_grids():
+    pytest.importorskip("tinyvdb")
+    cache = Path(__file__).resolve().parent / "data" / "blender_fire_0010.vdb"
+    text = " ".join(_run("info", cache).output.split())
+    assert "flame" in text and "0.9844" in text
+    assert "velocity: cannot be read: holds vec3s values" in text

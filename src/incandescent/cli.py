@@ -9,6 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
 import typer
 from rich.console import Console
 
@@ -322,6 +323,41 @@ def _demo_plate(output: Path, settings, frames: int, backend: str, overwrite: bo
     start = time.perf_counter()
     render_plate_video(output, settings, scene, backend=backend, overwrite=overwrite)
     console.print(f"plate: {frames} frames in {time.perf_counter() - start:.1f} s", highlight=False)
+
+
+@app.command()
+def info(
+    path: Path = typer.Argument(..., help="A volume file: .npy, .npz, .vdb or .nvdb."),
+) -> None:
+    """List a volume file's grids: type, shape, value range, placement; warn about grids named
+    like temperature that cannot be kelvin."""
+    from rich.table import Table
+
+    from incandescent.io.volumes import describe
+    from incandescent.volume.presets import kelvin_warning
+
+    try:
+        grids = describe(path)
+    except (ValueError, FileNotFoundError) as error:
+        raise _fail(str(error)) from None
+    table = Table(title=str(path))
+    for column in ("grid", "type", "shape (x, y, z)", "min", "max", "placement"):
+        table.add_column(column)
+    for g in grids:
+        table.add_row(
+            g.name, g.value_type, str(g.shape), _num(g.value_min), _num(g.value_max), g.placement
+        )
+    Console(width=160).print(table)
+    for g in grids:
+        warning = None
+        if g.value_max is not None:
+            warning = kelvin_warning(g.name, np.array([g.value_max]))
+        for text in filter(None, (warning, g.note and f"{g.name}: cannot be read: {g.note}")):
+            console.print(f"[yellow]warning:[/] {text}", highlight=False)
+
+
+def _num(value: float | None) -> str:
+    return "—" if value is None else f"{value:.4g}"
 
 
 @app.command()

@@ -108,3 +108,59 @@ def _vdb_source(path: Path) -> GridSource:
         return Grids(arrays, first.origin_m, first.voxel_size_m)
 
     return GridSource(path, readable, read)
+
+
+@dataclass(frozen=True)
+class GridSummary:
+    """What ``incandescent info`` shows about one grid."""
+
+    name: str
+    value_type: str
+    shape: tuple[int, ...] | None
+    value_min: float | None
+    value_max: float | None
+    placement: str
+    note: str | None = None
+
+
+def describe(path: str | Path) -> list[GridSummary]:
+    """A summary of every grid in a volume file: type, shape, value range, placement."""
+    path = Path(path)
+    if path.suffix.lower() in VDB_SUFFIXES and path.is_file():
+        return _describe_vdb(path)
+    source = open_grids(path)
+    out = []
+    for name in source.names:
+        values = source.read([name]).arrays[name]
+        numeric = np.issubdtype(values.dtype, np.number) and values.size > 0
+        low, high = (
+            (float(np.nanmin(values)), float(np.nanmax(values))) if numeric else (None, None)
+        )
+        out.append(
+            GridSummary(
+                name,
+                str(values.dtype),
+                values.shape,
+                low,
+                high,
+                "none stored (default: centred, largest side 1 m)",
+            )
+        )
+    return out
+
+
+def _describe_vdb(path: Path) -> list[GridSummary]:
+    from incandescent.io import vdb
+
+    out = []
+    for g in vdb.list_grids(path):
+        shape = None
+        if g.index_min is not None and g.index_max is not None:
+            shape = tuple(hi - lo + 1 for lo, hi in zip(g.index_min, g.index_max, strict=True))
+        placement = f"voxel {g.voxel_size_m} m, voxel (0,0,0) centre at {g.translation_m} m"
+        out.append(
+            GridSummary(
+                g.name, g.value_type, shape, g.value_min, g.value_max, placement, g.unreadable
+            )
+        )
+    return out
