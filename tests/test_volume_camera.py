@@ -141,3 +141,20 @@ def test_remap_from_range():
     np.testing.assert_allclose(remap.apply(np.array([0.0, 0.5, 1.0])), [800.0, 1500.0, 2200.0])
     with pytest.raises(ValueError, match="0 <= LOW < HIGH"):
         Remap.from_range(2000.0, 1000.0)
+
+
+def test_z_up_sources_are_rotated_into_the_y_up_world():
+    """(x, y, z) ↦ (x, z, −y): every voxel centre lands where the rotation puts it."""
+    from incandescent.api import _z_up_to_y_up
+
+    rng = np.random.default_rng(3)
+    grid = rng.random((3, 4, 5))
+    origin, voxel = (0.5, -1.0, 2.0), 0.25
+    rotated, new_origin = _z_up_to_y_up({"temperature": grid}, origin, voxel)
+    new = rotated["temperature"]
+    assert new.shape == (3, 5, 4)
+    for i, j, k in [(0, 0, 0), (2, 3, 4), (1, 2, 0)]:
+        centre = np.asarray(origin) + (np.array([i, j, k]) + 0.5) * voxel
+        expected = np.array([centre[0], centre[2], -centre[1]])
+        index = np.round((expected - np.asarray(new_origin)) / voxel - 0.5).astype(int)
+        assert new[tuple(index)] == grid[i, j, k]

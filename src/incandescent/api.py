@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from incandescent.camera import Camera, default_camera
 from incandescent.config import GridNames, VolumeSection
@@ -31,6 +34,8 @@ __all__ = [
 
 
 OPTIONAL_ROLES = ("absorption", "emission_scale", "sodium_fraction")
+#: Up axis of each preset's source application (ours is +y); Blender is z-up.
+PRESET_UP_AXIS = {"blender": "z"}
 PRESET_ROLES = ("temperature", "flame", "density")
 
 
@@ -72,22 +77,44 @@ def volume_from_section(spec: VolumeSection, remap: Remap) -> Volume:
         roles["absorption"] = None
     read = source.read(sorted({n for n in roles.values() if n}))
     grids = read.arrays
-    by_role = {role: grids[name] for role, name in roles.items() if name}
+    by_role: dict[str, Any] = {role: grids[name] for role, name in roles.items() if name}
     if spec.preset:
         out = apply_preset(spec.preset, grids, spec.preset_options, names)
-        temperature, kappa = out["temperature_K"], out["absorption_per_m"]
-    else:
-        temperature, kappa = by_role["temperature"], by_role.get("absorption")
+        by_role["temperature"], by_role["absorption"] = (
+            out["temperature_K"],
+            out["absorption_per_m"],
+        )
+    file_origin = read.origin_m  # in the source's axes
+    voxel = spec.voxel_size_m or read.voxel_size_m
+    up = spec.up_axis or PRESET_UP_AXIS.get(spec.preset or "", "y")
+    if up == "z":
+        by_role, file_origin = _z_up_to_y_up(by_role, file_origin, voxel)
+    origin = spec.origin_m or file_origin
     return Volume.from_arrays(
-        temperature,
-        spec.absorption if spec.absorption is not None else kappa,
+        by_role["temperature"],
+        spec.absorption if spec.absorption is not None else by_role.get("absorption"),
         by_role.get("emission_scale"),
-        spec.voxel_size_m or read.voxel_size_m,
-        spec.origin_m or read.origin_m,
+        voxel,
+        origin,
         remap=remap,
         source=str(source.path),
         sodium_fraction=by_role.get("sodium_fraction"),
     )
+
+
+def _z_up_to_y_up(grids: dict, origin, voxel_size_m):
+    """Rotate z-up grids into our y-up world: (x, y, z) ↦ (x, z, −y), a proper rotation.
+
+    ``a'[i, k, n_y − 1 − j] = a[i, j, k]``; the box corner moves to (o_x, o_z, −(o_y + L_y)).
+    """
+    rotated = {
+        role: None if g is None else np.flip(np.swapaxes(np.asarray(g), 1, 2), axis=2)
+        for role, g in grids.items()
+    }
+    if origin is None:
+        return rotated, None
+    length_y = np.asarray(grids["temperature"]).shape[1] * (voxel_size_m or 0.0)
+    return rotated, (origin[0], origin[2], -(origin[1] + length_y))
 
 
 def camera_from(

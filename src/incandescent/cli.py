@@ -85,6 +85,7 @@ def render(
         None, help="Name of the temperature grid [temperature, heat or temp]."
     ),
     preset: str = typer.Option(None, help="Source preset: blender | houdini | embergen."),
+    up_axis: str = typer.Option(None, help="The source's up axis: y | z [preset's, else y]."),
     offset: float = typer.Option(None, help="Temperature remap: T = (raw − offset)·scale [0]."),
     scale: float = typer.Option(None, help="Temperature remap scale, K per raw unit [1]."),
     cutoff: float = typer.Option(None, help="Voxels below this many K are vacuum [0]."),
@@ -165,6 +166,7 @@ def _overrides(f: dict) -> dict:
             "absorption": f["absorption"],
             "voxel_size_m": f["voxel_size"],
             "preset": f["preset"],
+            "up_axis": f["up_axis"],
             "grids": {"temperature": f["temperature_grid"]},
             "temperature": {
                 "offset": f["offset"],

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import TypeVar
+from typing import Literal, TypeVar
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -137,6 +137,8 @@ class VolumeSection(_Section):
     absorption: float | None = None
     voxel_size_m: float | None = None
     origin_m: Vec3 | None = None
+    #: The source's up axis: "y" (ours, Houdini) or "z" (Blender); None: the preset's, else "y".
+    up_axis: Literal["y", "z"] | None = None
 
     @model_validator(mode="after")
     def _check(self) -> VolumeSection:
