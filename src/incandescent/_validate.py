@@ -9,7 +9,8 @@ from numpy.typing import ArrayLike, NDArray
 def _first_bad(values: NDArray, bad: NDArray) -> str:
     index = tuple(int(i) for i in np.argwhere(bad)[0])
     where = f" at index {index}" if values.ndim else ""
-    return f"{values[index] if values.ndim else values!r}{where}"
+    value = values[index] if values.ndim else values
+    return f"{np.asarray(value).item()!r}{where}"  # a plain Python number, not np.float64(...)
 
 
 def real_array(value: ArrayLike, name: str) -> NDArray[np.float64]:
