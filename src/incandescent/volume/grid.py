@@ -13,6 +13,7 @@ emit nor absorb. Negative kelvin after remapping is an error unless a cutoff (> 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -69,6 +70,8 @@ class Volume:
     absorption_per_m: (nx, ny, nz) float32 κ in 1/m (already 0 where T < cutoff).
     emission_scale: (nx, ny, nz) float32 or None — a non-physical multiplier of emission only.
     sodium_fraction: (nx, ny, nz) float32 in [0, 1] or None — the paper's per-voxel sodium term.
+    species: name → (nx, ny, nz) float32 fraction in [0, 1] of an emitting species (Na, Li, …)
+        whose lines (``incandescent.spectra.lines``) add to the emission in physical mode.
     origin_m: world position of the corner of voxel (0, 0, 0), m.
     voxel_size_m: side of a voxel, m.
     absorption_source: how κ was given ("grid", "constant 2.0 1/m", or the default's description).
@@ -81,6 +84,7 @@ class Volume:
     voxel_size_m: float
     absorption_source: str = field(default="grid")
     sodium_fraction: NDArray[np.float32] | None = None
+    species: dict[str, NDArray[np.float32]] = field(default_factory=dict)
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -121,7 +125,8 @@ class Volume:
 
     def with_sodium(self, sodium_fraction: ArrayLike | float) -> Volume:
         """A copy with a sodium fraction (0..1, constant or grid) for the paper's sodium term."""
-        return self.replace(sodium_fraction=_sodium_grid(sodium_fraction, self.shape, "volume"))
+        sodium = _fraction_grid(sodium_fraction, self.shape, "sodium_fraction", "volume")
+        return self.replace(sodium_fraction=sodium)
 
     def macrocells(self, cell_voxels: int = 8, paper_min_K: float | None = None) -> MacrocellGrid:
         """Macrocells for empty-space skipping, computed once per cell size and mode.
@@ -131,8 +136,10 @@ class Volume:
         """
         key = ("macrocells", cell_voxels, paper_min_K)
         if key not in self._cache:
-            if paper_min_K is None:
+            if paper_min_K is None:  # empty: nothing absorbs and no species emits
                 grid = self.absorption_per_m
+                for fraction in self.species.values():
+                    grid = np.maximum(grid, fraction)
             else:
                 grid = (self.temperature_K >= np.float32(paper_min_K)).astype(np.float32)
             self._cache[key] = build_macrocells(grid, cell_voxels)
@@ -149,6 +156,7 @@ class Volume:
         remap: Remap | None = None,
         source: str = "temperature",
         sodium_fraction: ArrayLike | float | None = None,
+        species: Mapping[str, ArrayLike | float] | None = None,
     ) -> Volume:
         """Validate and place grids; ``source`` names the data's origin in error messages."""
         raw = _grid(temperature, f"{source}")
@@ -160,8 +168,14 @@ class Volume:
         kappa[vacuum] = 0.0
         scale = _optional_grid(emission_scale, temp.shape, "emission_scale", source)
         origin = _origin(origin_m, temp.shape, voxel)
-        sodium = _sodium_grid(sodium_fraction, temp.shape, source)
-        return cls(_f32(temp), _f32(kappa), scale, origin, voxel, how, sodium)
+        sodium = _fraction_grid(sodium_fraction, temp.shape, "sodium_fraction", source)
+        fractions = {
+            str(name): _f32(np.where(vacuum, 0.0, grid))  # vacuum voxels emit nothing
+            for name, value in (species or {}).items()
+            if (grid := _fraction_grid(value, temp.shape, f"species {name!r} fraction", source))
+            is not None
+        }
+        return cls(_f32(temp), _f32(kappa), scale, origin, voxel, how, sodium, fractions)
 
 
 def _grid(value: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -230,15 +244,14 @@ def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] 
     return _f32(grid)
 
 
-def _sodium_grid(value, shape, source: str) -> NDArray[np.float32] | None:
-    """A sodium-fraction grid in [0, 1] (constant or grid), or None."""
-    sodium = _optional_grid(value, shape, "sodium_fraction", source)
-    if sodium is not None and sodium.max() > 1.0:
-        index = tuple(int(i) for i in np.argwhere(sodium > 1.0)[0])
-        raise ValueError(
-            f"{source}: sodium_fraction must be in [0, 1]; got {sodium[index]:g} at voxel {index}"
-        )
-    return sodium
+def _fraction_grid(value, shape, name: str, source: str):
+    """A fraction grid in [0, 1] (constant or grid), or None."""
+    grid = _optional_grid(value, shape, name, source)
+    if grid is not None and grid.max() > 1.0:
+        index = tuple(int(i) for i in np.argwhere(grid > 1.0)[0])
+        got = f"{grid[index]:g} at voxel {index}"
+        raise ValueError(f"{source}: {name} must be in [0, 1]; got {got}")
+    return grid
 
 
 def _nonnegative_scalar(value, name: str) -> float:

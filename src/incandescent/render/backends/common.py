@@ -37,6 +37,8 @@ class MarchInputs:
     macrocells: MacrocellGrid | None
     settings: RenderSettings
     sodium_lut: EmissionLUT | None = None  # paper mode with a sodium grid: the 590 nm term
+    #: physical mode: (species name, its T ↦ XYZ-per-metre table) for each fraction grid
+    species_luts: tuple[tuple[str, EmissionLUT], ...] = ()
 
 
 @dataclass(frozen=True)

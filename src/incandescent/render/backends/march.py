@@ -36,6 +36,10 @@ class _Kernel:
         self.medium, self.scale, self.sodium = _device_grids(m, vol)
         self.lut = m.Float(_table4(lut.values))
         self.paper = s.brightness == "paper"
+        self.species = [
+            (_device_grid(m, vol, ("species", name), vol.species[name]), m.Float(_table4(t.values)))
+            for name, t in inputs.species_luts
+        ]
         if self.paper:
             self._init_paper(m, inputs)
         self.lut_size, self.lut_t_min = lut.size, np.float32(lut.t_min_K)
@@ -133,7 +137,7 @@ class _Kernel:
         rgb = rgb * (dr.power(temp, self.paper_exponent) / peak)
         return dr.select(temp >= self.lut_t_min, rgb, 0.0)
 
-    def accumulate_paper(self, tr, L, kappa, temp, c, ds_m):
+    def accumulate_paper(self, tr, L, kappa, temp, c, ds_m, fractions):
         """Paper mode: add colour × gain per voxel of path; no absorption (Tr stays 1)."""
         rgb = self.paper_colour(temp, c)
         if self.scale is not None:
@@ -141,31 +145,51 @@ class _Kernel:
         return tr, self.dr.fma(rgb, ds_m * self.paper_gain_per_m, L)
 
     # --- one segment ----------------------------------------------------------------------
-    def integrate(self, tr, L, kappa, temp, c, ds_m):
-        """Exact emission–absorption over one segment (Kirchhoff, DESIGN.md §3)."""
+    def integrate(self, tr, L, kappa, temp, c, ds_m, fractions):
+        """Exact emission–absorption over one segment (Kirchhoff, DESIGN.md §3).
+
+        With species lines the emission coefficient is η = κ·B(T) + Σ_s f_s·E_s(T) (E_s per unit
+        length), and a segment adds Tr·η·(1 − e^{−κΔs})/κ (→ Tr·η·Δs as κ → 0)."""
         dr = self.dr
-        xyz = self.emission(temp)
-        if self.scale is not None:
-            xyz = xyz * self.trilinear(self.scale, c)
         x = kappa * ds_m
         e = dr.exp(-x)
-        alpha = dr.select(x < THIN_STEP, x * (1.0 - x * (0.5 - x * (1.0 / 6.0))), 1.0 - e)
-        return tr * e, dr.fma(xyz, tr * alpha, L)
+        series = 1.0 - x * (0.5 - x * (1.0 / 6.0))
+        if self.species:
+            eta = self.emission_coefficient(kappa, temp, fractions)
+            weight = dr.select(x < THIN_STEP, ds_m * series, (1.0 - e) / kappa)
+        else:
+            eta = self.emission(temp)
+            weight = dr.select(x < THIN_STEP, x * series, 1.0 - e)
+        if self.scale is not None:
+            eta = eta * self.trilinear(self.scale, c)
+        return tr * e, dr.fma(eta, tr * weight, L)
+
+    def emission_coefficient(self, kappa, temp, fractions):
+        """η = κ·XYZ(B(T)) + Σ_s f_s·XYZ_s(T), per metre of path; 0 below the tables' T_min."""
+        position = self.lut_position(temp)
+        eta = self.lookup(self.lut, position) * kappa
+        for fraction, (_, table) in zip(fractions, self.species, strict=True):
+            eta = self.dr.fma(self.lookup(table, position), fraction, eta)
+        return self.dr.select(temp >= self.lut_t_min, eta, 0.0)
 
     def sample(self, k, tr, L, n, depth, p, t_mid, ds_m):
         """One segment: sample (κ, T) at its midpoint and integrate where the medium emits."""
         dr = self.dr
         c = self.corners(p)
         kappa, temp = self.trilinear(self.medium, c, self.m.Array2f)
+        fractions = [self.trilinear(grid, c) for grid, _ in self.species]
+        present = kappa > 0.0
+        for fraction in fractions:
+            present = present | (fraction > 0.0)
         if self.paper:
             contributes = temp >= self.paper_min_K
         else:
-            contributes = (kappa > 0.0) & (temp >= self.lut_t_min)
+            contributes = present & (temp >= self.lut_t_min)
         tr, L = dr.if_stmt(
-            (tr, L, kappa, temp, c, ds_m),
+            (tr, L, kappa, temp, c, ds_m, fractions),
             contributes,
             self.accumulate_paper if self.paper else self.integrate,
-            lambda tr, L, kappa, temp, c, ds_m: (tr, L),
+            lambda tr, L, kappa, temp, c, ds_m, fractions: (tr, L),
         )
         first = contributes & (depth == np.inf)
         depth = dr.select(first, t_mid * self.ds_per_voxel, depth)
@@ -215,6 +239,15 @@ def _padded(grid: np.ndarray) -> np.ndarray:
 
 #: Device copies of each live volume's padded grids, per array module (freed with the volume).
 _DEVICE_GRIDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _device_grid(m, volume, key: tuple, grid: np.ndarray):
+    """One extra padded grid of ``volume`` on the device, uploaded once per volume and key."""
+    per_volume = _DEVICE_GRIDS.setdefault(volume, {})
+    full_key = (m.__name__,) + key
+    if full_key not in per_volume:
+        per_volume[full_key] = m.Float(_padded(grid))
+    return per_volume[full_key]
 
 
 def _device_grids(m, volume):
