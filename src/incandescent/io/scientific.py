@@ -21,8 +21,9 @@ is the voxel at x=i, y=j, z=k (any permutation of x, y, z; case-insensitive).
   groups up to the root. Without one: the ``axes`` argument, else ``"xyz"`` (the ``.npy``
   convention).
 - NetCDF: the variable's dimension names when they are ``x``, ``y`` and ``z`` (any order and
-  case); otherwise the ``axes`` argument; otherwise reading that variable is an error (the
-  dimension names are listed).
+  case); else the CF ``axis`` attributes (``X``, ``Y``, ``Z``) of its dimensions' coordinate
+  variables; else the ``axes`` argument; else reading that variable is an error (the dimension
+  names are listed). Names such as ``lon``/``lat``/``height`` are not guessed.
 
 An ``axes`` argument that contradicts the file's attribute or dimension names is an error, never
 silently overridden either way.
@@ -57,6 +58,7 @@ CF decoding (``scale_factor``, ``add_offset``, ``_FillValue`` → NaN) is applie
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import logging
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
@@ -95,8 +97,8 @@ UNITS_ATTRIBUTE = "units"
 #: Relative tolerance for uniform coordinate spacing and for agreeing voxel sizes / origins.
 SPACING_RTOL = 1e-5
 
-#: Temperature units → (shift, factor) with T/K = (value + shift)·factor. 273.15 K is 0 °C and
-#: 459.67 °R (= 5/9 K per °F) is 0 °F, both exact by definition.
+#: Temperature units → (shift, factor) with T/K = (value + shift)·factor, exact by definition of
+#: the scales: 0 °C = 273.15 K; 0 °F = 459.67 °R (Rankine) and 1 °R = 1 °F = 5/9 K.
 _KELVIN = (0.0, 1.0)
 _CELSIUS = (273.15, 1.0)
 _FAHRENHEIT = (459.67, 5.0 / 9.0)
@@ -198,6 +200,8 @@ def to_kelvin(values: NDArray, units: str | None) -> tuple[NDArray, str | None]:
     """
     if units is None:
         return values, None
+    values = np.asarray(values)
+    values = values.astype(_float_dtype(values.dtype), copy=False)
     known = TEMPERATURE_UNITS.get(_unit_key(units))
     if known is None:
         return values, f"units {units!r} (not a temperature unit; values kept)"
@@ -205,7 +209,8 @@ def to_kelvin(values: NDArray, units: str | None) -> tuple[NDArray, str | None]:
     if known == _KELVIN:
         return values, f"units {units!r} (kelvin)"
     converted = (values + values.dtype.type(shift)) * values.dtype.type(factor)
-    return converted, f"units {units!r} converted to K: T = (t + {shift:g})·{factor:.6g}"
+    rule = f"t + {shift:g}" if factor == 1.0 else f"(t + {shift:g})·{factor:.6g}"
+    return converted, f"units {units!r} converted to K: T = {rule}"
 
 
 # ------------------------------------------------------------------ shared
@@ -245,8 +250,10 @@ def _unit_key(units: str) -> str:
 
 
 def _checked_axes(axes: Any, path: Path, where: str) -> str | None:
-    if axes is None:
-        return None
+    return None if axes is None else _axes_letters(axes, path, where)
+
+
+def _axes_letters(axes: Any, path: Path, where: str) -> str:
     text = _text(axes)
     letters = (text or "").replace(",", "").replace(" ", "").lower()
     if sorted(letters) != ["x", "y", "z"]:
@@ -282,15 +289,18 @@ def _note(layout: _Layout) -> str:
         return f"unreadable: {layout.problem}"
     parts = [f"axes {layout.axes} ({layout.axes_from})"]
     parts.append(to_kelvin(np.zeros(0, np.float32), layout.units)[1] or "no units")
+    flipped = [axis for axis, f in zip(layout.axes, layout.flip, strict=True) if f]
+    if flipped:
+        parts.append(f"decreasing coordinates: {', '.join(flipped)} flipped")
     if layout.placement_note:
         parts.append(layout.placement_note)
     elif layout.voxel_size_m is not None:
-        parts.append(f"voxel {layout.voxel_size_m:g} m, corner {_fmt(layout.origin_m)} m")
+        parts.append(f"voxel {layout.voxel_size_m:g} m, corner {_fmt(layout.origin_m)}")
     return "; ".join(parts)
 
 
 def _fmt(origin: tuple[float, ...] | None) -> str:
-    return "unknown" if origin is None else "(" + ", ".join(f"{v:g}" for v in origin) + ")"
+    return "unknown" if origin is None else "(" + ", ".join(f"{v:g}" for v in origin) + ") m"
 
 
 def _source(
@@ -325,7 +335,7 @@ def _agreed(path: Path, what: str, values: Mapping[str, Any]) -> Any:
     if not known:
         return None
     first = next(iter(known.values()))
-    if any(not np.allclose(v, first, rtol=SPACING_RTOL, atol=0.0) for v in known.values()):
+    if any(not np.allclose(v, first, rtol=SPACING_RTOL, atol=1e-12) for v in known.values()):
         listed = ", ".join(f"{n} {v}" for n, v in known.items())
         raise ValueError(f"{path}: grids differ in {what}: {listed}")
     return first
@@ -382,7 +392,7 @@ def _h5_attribute(obj: Any, names: Sequence[str]) -> tuple[str, Any] | None:
 def _h5_layout(path: Path, ds: Any, axes: str | None) -> _Layout:
     try:
         return _h5_layout_checked(path, ds, axes)
-    except (OSError, TypeError, KeyError) as error:  # attributes of unsupported types
+    except (OSError, RuntimeError, TypeError, KeyError) as error:  # unsupported or corrupt
         return _Layout("xyz", "unknown", problem=f"attributes cannot be read ({error})")
     except ValueError as error:
         return _Layout("xyz", "unknown", problem=str(error).removeprefix(f"{path}: "))
@@ -393,8 +403,7 @@ def _h5_layout_checked(path: Path, ds: Any, axes: str | None) -> _Layout:
     if found is None:
         layout = _Layout(axes or "xyz", "the axes argument" if axes else "default")
     else:
-        stored = _checked_axes(found[1], path, f"attribute {found[0]!r}")
-        assert stored is not None
+        stored = _axes_letters(found[1], path, f"attribute {found[0]!r}")
         if axes is not None and axes != stored:
             raise ValueError(
                 f"attribute {found[0]!r} says axes {stored!r} but the axes argument says "
@@ -410,18 +419,25 @@ def _h5_place(ds: Any) -> dict[str, Any]:
     origin = _h5_attribute(ds, (ORIGIN_ATTRIBUTE,))
     out: dict[str, Any] = {}
     if size is not None:
-        sizes = np.ravel(np.asarray(size[1], dtype=np.float64))
+        sizes = _numbers(size[1], VOXEL_SIZE_ATTRIBUTE)
         if sizes.size not in (1, 3) or not np.all(np.isfinite(sizes) & (sizes > 0)):
             raise ValueError(f"{VOXEL_SIZE_ATTRIBUTE} must be one or three positive numbers")
         if not np.allclose(sizes, sizes[0], rtol=SPACING_RTOL, atol=0.0):
             raise ValueError(f"voxels are not cubes ({VOXEL_SIZE_ATTRIBUTE} = {sizes.tolist()})")
         out["voxel_size_m"] = float(sizes[0])
     if origin is not None:
-        corner = np.ravel(np.asarray(origin[1], dtype=np.float64))
+        corner = _numbers(origin[1], ORIGIN_ATTRIBUTE)
         if corner.size != 3 or not np.all(np.isfinite(corner)):
             raise ValueError(f"{ORIGIN_ATTRIBUTE} must be three finite numbers (x, y, z)")
         out["origin_m"] = (float(corner[0]), float(corner[1]), float(corner[2]))
     return out
+
+
+def _numbers(value: Any, name: str) -> NDArray[np.float64]:
+    try:
+        return np.ravel(np.asarray(value, dtype=np.float64))
+    except (TypeError, ValueError):
+        raise ValueError(f"attribute {name!r} is not numeric: {value!r}") from None
 
 
 def _h5_read(
@@ -433,7 +449,7 @@ def _h5_read(
         for name, layout in wanted.items():
             try:
                 values = f[name][()]
-            except (OSError, KeyError, ValueError) as error:
+            except (OSError, RuntimeError, KeyError, ValueError) as error:
                 raise ValueError(f"{path}: grid {name!r} cannot be read ({error})") from None
             arrays[name] = _prepared(path, name, values, layout)
     return _grids(path, arrays, layouts)
@@ -450,7 +466,8 @@ def _netcdf_engine(path: Path) -> str:
         head = f.read(8)
     if head == _HDF5_SIGNATURE:
         _import("h5netcdf", path)
-        return "h5netcdf"
+        with _h5_file(_import("h5py", path), path):  # a clean error for unopenable files
+            return "h5netcdf"
     if head[:3] == b"CDF":
         for engine, module in (("netcdf4", "netCDF4"), ("scipy", "scipy")):
             if importlib.util.find_spec(module) is not None:
@@ -486,15 +503,15 @@ def _nc_layout(ds: Any, name: str, axes: str | None) -> _Layout:
     var = ds[name]
     dims = [str(d) for d in var.dims]
     units = _text(var.attrs.get(UNITS_ATTRIBUTE))
-    named = "".join(d.lower() for d in dims)
-    if sorted(named) == ["x", "y", "z"] and len(named) == 3:
+    named, named_from = _nc_named_axes(ds, dims)
+    if named is not None:
         if axes is not None and axes != named:
             problem = (
-                f"dimensions are named {tuple(dims)} but the axes argument says {axes!r}; "
-                "drop the argument"
+                f"{named_from} say axes {named!r} (dimensions {tuple(dims)}) but the axes "
+                f"argument says {axes!r}; drop the argument"
             )
-            return _Layout(named, "dimension names", units, problem=problem)
-        layout = _Layout(named, "dimension names", units)
+            return _Layout(named, named_from, units, problem=problem)
+        layout = _Layout(named, named_from, units)
     elif axes is not None:
         layout = _Layout(axes, f"the axes argument; dimensions {tuple(dims)}", units)
     else:
@@ -507,6 +524,20 @@ def _nc_layout(ds: Any, name: str, axes: str | None) -> _Layout:
         return replace(layout, **_nc_place(ds, dims, layout.axes))
     except ValueError as error:
         return replace(layout, problem=str(error))
+    except (OSError, RuntimeError, KeyError, TypeError) as error:
+        return replace(layout, problem=f"coordinates cannot be read ({error})")
+
+
+def _nc_named_axes(ds: Any, dims: list[str]) -> tuple[str | None, str]:
+    """The axis order the file states: dimension names x, y, z, else the CF ``axis`` attribute
+    (``X``, ``Y``, ``Z``) of the dimensions' coordinate variables."""
+    named = "".join(d.lower() for d in dims)
+    if len(named) == 3 and sorted(named) == ["x", "y", "z"]:
+        return named, "dimension names"
+    cf = "".join((_text(ds[d].attrs.get("axis")) or "?") if d in ds.coords else "?" for d in dims)
+    if len(cf) == 3 and sorted(cf.lower()) == ["x", "y", "z"]:
+        return cf.lower(), "coordinate 'axis' attributes"
+    return None, ""
 
 
 def _nc_place(ds: Any, dims: list[str], axes: str) -> dict[str, Any]:
@@ -518,7 +549,8 @@ def _nc_place(ds: Any, dims: list[str], axes: str) -> dict[str, Any]:
         units = _text(ds[dim].attrs.get(UNITS_ATTRIBUTE)) or "m"
         factor = LENGTH_UNITS.get(_unit_key(units))
         if factor is None:
-            return {"placement_note": f"coordinate {dim!r} in {units!r}, not a length: no placement"}
+            note = f"coordinate {dim!r} in {units!r}, not a length: no placement"
+            return {"placement_note": note}
         coords[dim] = (np.asarray(ds[dim].values, dtype=np.float64) * factor, factor)
     spacing = {dim: _spacing(dim, c) for dim, (c, _) in coords.items() if c.size > 1}
     flip = tuple(spacing.get(dim, 1.0) < 0 for dim in dims)
@@ -538,8 +570,8 @@ def _nc_place(ds: Any, dims: list[str], axes: str) -> dict[str, Any]:
 
 def _spacing(dim: str, centres: NDArray) -> float:
     """The uniform signed spacing of a 1-D coordinate, or ValueError."""
-    steps = np.diff(centres)
-    if centres.ndim != 1 or not np.all(np.isfinite(steps)) or steps[0] == 0:
+    steps = np.diff(centres) if centres.ndim == 1 else np.zeros(1)
+    if not np.all(np.isfinite(steps)) or steps[0] == 0:
         raise ValueError(f"coordinate {dim!r} is not a 1-D strictly monotonic coordinate")
     if not np.allclose(steps, steps[0], rtol=SPACING_RTOL, atol=0.0):
         raise ValueError(
