@@ -8,6 +8,8 @@ import sys
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from incandescent.io import scientific
 from incandescent.io.scientific import open_hdf5, open_netcdf, open_scientific, to_kelvin
@@ -374,3 +376,48 @@ def test_to_kelvin_keeps_kelvin_arrays_and_converts_integers_to_float():
         (273.15, 1.0),
         (459.67, 5 / 9),
     }
+
+
+# ------------------------------------------------------------------ bounded fuzz
+
+
+@pytest.fixture(scope="module")
+def valid_files(tmp_path_factory):
+    h5py = pytest.importorskip("h5py")
+    xr = pytest.importorskip("xarray")
+    pytest.importorskip("h5netcdf")
+    folder = tmp_path_factory.mktemp("fuzz")
+    h5 = folder / "valid.h5"
+    with h5py.File(h5, "w") as f:
+        group = f.create_group("fields")
+        group.attrs.update({"voxel_size_m": 0.1, "origin_m": [0.0, 0.0, 0.0]})
+        group.create_dataset("t", data=xyz_field(), compression="gzip").attrs.update(
+            {"units": "degC", "axes": "zyx"}
+        )
+    coords = {
+        d: (d, centres(0.0, 0.1, n), {"units": "m"}) for d, n in zip("xyz", SHAPE, strict=True)
+    }
+    nc = write_nc(xr, folder / "valid.nc", xyz_field(), dims=("x", "y", "z"), coords=coords)
+    return {".h5": (h5.read_bytes(), open_hdf5), ".nc": (nc.read_bytes(), open_netcdf)}
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(suffix=st.sampled_from([".h5", ".nc"]), data=st.data())
+def test_corrupted_files_read_or_raise_value_error(valid_files, tmp_path_factory, suffix, data):
+    raw, opener = valid_files[suffix]
+    flips = data.draw(
+        st.lists(st.tuples(st.integers(0, len(raw) - 1), st.integers(0, 255)), max_size=8)
+    )
+    cut = data.draw(st.integers(8, len(raw)))
+    corrupted = bytearray(raw)
+    for at, byte in flips:
+        corrupted[at] = byte
+    path = tmp_path_factory.getbasetemp() / f"fuzzed{suffix}"
+    path.write_bytes(bytes(corrupted[:cut]))
+    message = None
+    try:
+        source = opener(path)
+        source.read(source.names)
+    except ValueError as error:
+        message = str(error)
+    assert message is None or message.startswith(f"{path}: ")
