@@ -341,3 +341,18 @@ def test_info_on_a_blender_vdb_names_unreadable_grids():
     text = " ".join(_run("info", cache).output.split())
     assert "flame" in text and "0.9844" in text
     assert "velocity: cannot be read: holds vec3s values" in text
+
+
+def test_render_hdf5_with_declared_axis_order(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    temp = np.full((4, 6, 8), 300.0)
+    temp[1:3, 2:4, 3:5] = 2200.0
+    path = tmp_path / "cfd.h5"
+    with h5py.File(path, "w") as f:
+        f["fields/temperature"] = np.transpose(temp, (2, 1, 0))  # stored z, y, x as CFD codes do
+    info = " ".join(_run("info", path, "--axes", "zyx").output.split())
+    assert "fields/temperature" in info and "(4, 6, 8)" in info
+    out = tmp_path / "cfd.exr"
+    result = _run("render", path, "--axes", "zyx", "-o", out, "--width", 8, "--height", 8)
+    assert result.exit_code == 0, result.output
+    assert read_exr(out)[0].max() > 0

@@ -67,7 +67,7 @@ def _grid_name(role: str, names: dict[str, str], available: tuple[str, ...], req
 
 def volume_from_section(spec: VolumeSection, remap: Remap) -> Volume:
     """The Volume a scene's ``[volume]`` section describes: file, grid roles, preset, remap."""
-    source = open_grids(spec.path)
+    source = open_grids(spec.path, spec.axes)
     names = spec.grids.given()
     core_roles = PRESET_ROLES if spec.preset else ("temperature",)
     roles = {r: _grid_name(r, names, source.names, not spec.preset) for r in core_roles}

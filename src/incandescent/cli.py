@@ -66,8 +66,8 @@ def version() -> None:
 def render(
     source: Path = typer.Argument(
         ...,
-        help="A volume file (.npy, .npz, .vdb, .nvdb) or a scene file (.toml, .json) whose values "
-        "the options below override.",
+        help="A volume file (.npy .npz .vdb .nvdb .h5 .hdf5 .nc) or a scene file (.toml, .json) "
+        "whose values the options below override.",
     ),
     output: Path = typer.Option(None, "--output", "-o", help="Output image: .exr (HDR) or .png."),
     width: int = typer.Option(None, help="Image width in pixels [512]."),
@@ -86,6 +86,9 @@ def render(
     ),
     preset: str = typer.Option(None, help="Source preset: blender | houdini | embergen."),
     up_axis: str = typer.Option(None, help="The source's up axis: y | z [preset's, else y]."),
+    axes: str = typer.Option(
+        None, help="Order of the stored array axes, e.g. zyx (files that do not say) [xyz]."
+    ),
     offset: float = typer.Option(None, help="Temperature remap: T = (raw − offset)·scale [0]."),
     scale: float = typer.Option(None, help="Temperature remap scale, K per raw unit [1]."),
     cutoff: float = typer.Option(None, help="Voxels below this many K are vacuum [0]."),
@@ -167,6 +170,7 @@ def _overrides(f: dict) -> dict:
             "voxel_size_m": f["voxel_size"],
             "preset": f["preset"],
             "up_axis": f["up_axis"],
+            "axes": f["axes"],
             "grids": {"temperature": f["temperature_grid"]},
             "temperature": {
                 "offset": f["offset"],
@@ -329,7 +333,8 @@ def _demo_plate(output: Path, settings, frames: int, backend: str, overwrite: bo
 
 @app.command()
 def info(
-    path: Path = typer.Argument(..., help="A volume file: .npy, .npz, .vdb or .nvdb."),
+    path: Path = typer.Argument(..., help="A volume file: .npy .npz .vdb .nvdb .h5 .hdf5 .nc."),
+    axes: str = typer.Option(None, help="Order of the stored array axes, e.g. zyx [xyz]."),
 ) -> None:
     """List a volume file's grids: type, shape, value range, placement; warn about grids named
     like temperature that cannot be kelvin."""
@@ -339,7 +344,7 @@ def info(
     from incandescent.volume.presets import kelvin_warning
 
     try:
-        grids = describe(path)
+        grids = describe(path, axes)
     except (ValueError, FileNotFoundError) as error:
         raise _fail(str(error)) from None
     table = Table(title=str(path))
@@ -354,8 +359,8 @@ def info(
         warning = None
         if g.value_max is not None:
             warning = kelvin_warning(g.name, np.array([g.value_max]))
-        for text in filter(None, (warning, g.note and f"{g.name}: cannot be read: {g.note}")):
-            console.print(f"[yellow]warning:[/] {text}", highlight=False)
+        for text in filter(None, (warning, g.note and f"{g.name}: {g.note}")):
+            console.print(f"[yellow]note:[/] {text}", highlight=False)
 
 
 def _num(value: float | None) -> str:

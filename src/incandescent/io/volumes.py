@@ -9,8 +9,8 @@ with ``allow_pickle=False``. Axis order is x, y, z (``a[i, j, k]`` is the voxel 
 from __future__ import annotations
 
 import zipfile
-from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +18,8 @@ from numpy.typing import NDArray
 
 NUMPY_SUFFIXES = (".npy", ".npz")
 VDB_SUFFIXES = (".vdb", ".nvdb")
-SUFFIXES = NUMPY_SUFFIXES + VDB_SUFFIXES
+SCIENCE_SUFFIXES = (".h5", ".hdf5", ".nc", ".nc4")  # incandescent.io.scientific (extra "science")
+SUFFIXES = NUMPY_SUFFIXES + VDB_SUFFIXES + SCIENCE_SUFFIXES
 
 
 @dataclass(frozen=True)
@@ -38,6 +39,8 @@ class GridSource:
     path: Path
     names: tuple[str, ...]
     read: Callable[[Iterable[str]], Grids]
+    #: per grid, what the reader did or found (axis order, unit conversion, placement, problems)
+    notes: Mapping[str, str] = field(default_factory=dict)
 
 
 def _np_load(path: Path):
@@ -64,8 +67,11 @@ def _npz_reader(path: Path, data) -> Callable[[Iterable[str]], Grids]:
     return read
 
 
-def open_grids(path: str | Path) -> GridSource:
-    """Open a volume file (errors name the file and the problem)."""
+def open_grids(path: str | Path, axes: str | None = None) -> GridSource:
+    """Open a volume file (errors name the file and the problem).
+
+    ``axes``: the order of the stored array axes (e.g. "zyx") for files that do not say it
+    (HDF5/NetCDF without axis metadata, .npy/.npz); arrays are returned in x, y, z order."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
@@ -77,10 +83,33 @@ def open_grids(path: str | Path) -> GridSource:
         raise FileNotFoundError(f"{path}: no such volume file")
     if suffix in VDB_SUFFIXES:
         return _vdb_source(path)
+    if suffix in SCIENCE_SUFFIXES:
+        from incandescent.io.scientific import open_scientific
+
+        return open_scientific(path, axes)
     data = _np_load(path)
     if isinstance(data, np.ndarray):
-        return GridSource(path, ("temperature",), _npy_reader(path, data))
-    return GridSource(path, tuple(data.files), _npz_reader(path, data))
+        source = GridSource(path, ("temperature",), _npy_reader(path, data))
+    else:
+        source = GridSource(path, tuple(data.files), _npz_reader(path, data))
+    return _with_axes(source, axes)
+
+
+def _with_axes(source: GridSource, axes: str | None) -> GridSource:
+    """A source whose arrays, stored in ``axes`` order, are returned in x, y, z order."""
+    if axes is None or axes == "xyz":
+        return source
+    if sorted(axes) != ["x", "y", "z"]:
+        raise ValueError(f"axes must be a permutation of xyz (e.g. zyx); got {axes!r}")
+    order = [axes.index(c) for c in "xyz"]
+
+    def read(names: Iterable[str]) -> Grids:
+        grids = source.read(names)
+        arrays = {n: np.ascontiguousarray(np.transpose(a, order)) for n, a in grids.arrays.items()}
+        return Grids(arrays, grids.origin_m, grids.voxel_size_m)
+
+    notes = {n: f"stored axes {axes}, transposed to xyz" for n in source.names}
+    return GridSource(source.path, source.names, read, notes)
 
 
 def _npy_reader(path: Path, data: NDArray) -> Callable[[Iterable[str]], Grids]:
@@ -123,30 +152,28 @@ class GridSummary:
     note: str | None = None
 
 
-def describe(path: str | Path) -> list[GridSummary]:
+def describe(path: str | Path, axes: str | None = None) -> list[GridSummary]:
     """A summary of every grid in a volume file: type, shape, value range, placement."""
     path = Path(path)
     if path.suffix.lower() in VDB_SUFFIXES and path.is_file():
         return _describe_vdb(path)
-    source = open_grids(path)
-    out = []
-    for name in source.names:
-        values = source.read([name]).arrays[name]
-        numeric = np.issubdtype(values.dtype, np.number) and values.size > 0
-        low, high = (
-            (float(np.nanmin(values)), float(np.nanmax(values))) if numeric else (None, None)
-        )
-        out.append(
-            GridSummary(
-                name,
-                str(values.dtype),
-                values.shape,
-                low,
-                high,
-                "none stored (default: centred, largest side 1 m)",
-            )
-        )
-    return out
+    source = open_grids(path, axes)
+    return [_summary(source, name) for name in source.names]
+
+
+def _summary(source: GridSource, name: str) -> GridSummary:
+    note = source.notes.get(name)
+    try:
+        grids = source.read([name])
+    except ValueError as error:  # one unreadable grid does not hide the others
+        return GridSummary(name, "?", None, None, None, "—", str(error))
+    values = grids.arrays[name]
+    numeric = np.issubdtype(values.dtype, np.number) and values.size > 0
+    low, high = (float(np.nanmin(values)), float(np.nanmax(values))) if numeric else (None, None)
+    placement = "none stored (default: centred, largest side 1 m)"
+    if grids.voxel_size_m is not None:
+        placement = f"voxel {grids.voxel_size_m:g} m, corner {grids.origin_m} m"
+    return GridSummary(name, str(values.dtype), values.shape, low, high, placement, note)
 
 
 def _describe_vdb(path: Path) -> list[GridSummary]:
@@ -160,7 +187,13 @@ def _describe_vdb(path: Path) -> list[GridSummary]:
         placement = f"voxel {g.voxel_size_m} m, voxel (0,0,0) centre at {g.translation_m} m"
         out.append(
             GridSummary(
-                g.name, g.value_type, shape, g.value_min, g.value_max, placement, g.unreadable
+                g.name,
+                g.value_type,
+                shape,
+                g.value_min,
+                g.value_max,
+                placement,
+                g.unreadable and f"cannot be read: {g.unreadable}",
             )
         )
     return out

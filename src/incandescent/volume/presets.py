@@ -191,9 +191,11 @@ def resolve_grid_name(
         if alias in names:
             return alias
     by_lower = {n.lower(): n for n in names}
+    by_leaf = {n.rsplit("/", 1)[-1].lower(): n for n in names}  # HDF5 paths: "fields/temperature"
     for alias in aliases:
-        if alias in by_lower:
-            return by_lower[alias]
+        for lookup in (by_lower, by_leaf):
+            if alias in lookup:
+                return lookup[alias]
     if not required:
         return None
     raise ValueError(
