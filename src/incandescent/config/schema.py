@@ -218,6 +218,7 @@ class RenderSection(_Section):
     paper_exponent: float = RenderSettings.paper_exponent
     paper_gain: float = RenderSettings.paper_gain
     paper_min_K: float = RenderSettings.paper_min_K
+    line_table: str | None = None
 
     @model_validator(mode="after")
     def _check(self) -> RenderSection:

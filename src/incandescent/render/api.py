@@ -14,6 +14,7 @@ from incandescent.render.backends import MarchInputs, resolve_backend, run_march
 from incandescent.render.film import HDRImage, resolve_pixels
 from incandescent.render.rays import prepare_rays
 from incandescent.render.settings import RenderSettings
+from incandescent.spectra.lines import LineTable, build_species_lut, load_lines, species_names
 from incandescent.spectra.lut import EmissionLUT, build_emission_lut
 from incandescent.volume import Volume
 
@@ -75,7 +76,34 @@ def _march_inputs(volume, camera, settings, backend: str) -> MarchInputs:
     sodium = None
     if paper and volume.sodium_fraction is not None:
         sodium = emission_lut(volume, settings, "sodium")
-    return MarchInputs(rays, volume, emission_lut(volume, settings), cells, settings, sodium)
+    table: LineTable | None = None
+    species: tuple[tuple[str, EmissionLUT], ...] = ()
+    if volume.species and not paper:
+        table = _line_table(settings.line_table)
+        species = tuple(
+            (name, _species_lut(settings.line_table, name, _lut_t_max(volume), settings.observer))
+            for name in volume.species
+        )
+    lut = emission_lut(volume, settings)
+    return MarchInputs(rays, volume, lut, cells, settings, sodium, species, table)
+
+
+@functools.lru_cache(maxsize=8)
+def _line_table(path: str | None) -> LineTable:
+    return load_lines(path)
+
+
+@functools.lru_cache(maxsize=64)
+def _species_lut(path: str | None, name: str, t_max_K: float, observer: str) -> EmissionLUT:
+    """The species' T ↦ XYZ-per-metre table; unknown names list the table's species."""
+    table = _line_table(path)
+    known = species_names(table)
+    if name not in known:
+        raise ValueError(
+            f"volume has a fraction grid for species {name!r}, which the line table "
+            f"{table.origin} does not list; it has: {', '.join(known)}"
+        )
+    return build_species_lut(table, name, t_max_K, observer=observer)
 
 
 def _scatter_rays(values: np.ndarray, inputs: MarchInputs, fill: float, reduce=np.mean):

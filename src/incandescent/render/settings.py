@@ -43,6 +43,8 @@ class RenderSettings:
         method: normalised chromaticity × T^paper_exponent summed along the ray, capped at 255).
     paper_exponent, paper_gain, paper_min_K: paper mode's brightness exponent (1.5), gain per
         voxel of path, and temperature below which a sample does not contribute.
+    line_table: a species line table file (.csv/.toml) for the volume's species fractions;
+        None: the shipped table (``incandescent.spectra.lines``).
     """
 
     width: int = 512
@@ -61,6 +63,7 @@ class RenderSettings:
     paper_exponent: float = 1.5
     paper_gain: float = PAPER_GAIN
     paper_min_K: float = PAPER_MIN_K
+    line_table: str | None = None
 
     def __post_init__(self) -> None:
         _positive_int(self.width, "width")

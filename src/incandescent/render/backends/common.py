@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from incandescent.render.rays import RayBatch
 from incandescent.render.settings import RenderSettings
+from incandescent.spectra.lines import LineTable
 from incandescent.spectra.lut import EmissionLUT
 from incandescent.volume import MacrocellGrid, Volume
 
@@ -39,6 +40,7 @@ class MarchInputs:
     sodium_lut: EmissionLUT | None = None  # paper mode with a sodium grid: the 590 nm term
     #: physical mode: (species name, its T ↦ XYZ-per-metre table) for each fraction grid
     species_luts: tuple[tuple[str, EmissionLUT], ...] = ()
+    line_table: LineTable | None = None  # the lines behind species_luts (the reference uses them)
 
 
 @dataclass(frozen=True)

@@ -83,6 +83,8 @@ def _integrate_step(inputs, r, p, ds_m, xyz, transmittance) -> np.ndarray:
 
     Returns the mask of rays whose sample emits (κ > 0 and T at or above the table's T_min)."""
     vol = inputs.volume
+    if vol.species:
+        return _integrate_species_step(inputs, r, p, ds_m, xyz, transmittance)
     kappa = trilinear(vol.absorption_per_m, p)
     absorbing = kappa > 0  # where κ = 0 nothing is emitted (Kirchhoff): skip the spectral integral
     emits = absorbing.copy()
@@ -97,4 +99,33 @@ def _integrate_step(inputs, r, p, ds_m, xyz, transmittance) -> np.ndarray:
     emitted = (transmittance[r] * alpha * scale)[:, None] * _emission_xyz(temp, inputs)
     xyz[r] += emitted
     transmittance[r] *= np.exp(-optical_depth)
+    return emits
+
+
+def _integrate_species_step(inputs, r, p, ds_m, xyz, transmittance) -> np.ndarray:
+    """As :func:`_integrate_step` with species lines: η = κ·B(T) + Σ_s f_s·E_s(T) per metre,
+    and the segment adds Tr·η·(1 − e^{−κΔs})/κ (Tr·η·Δs where κ = 0); E_s exact, not tabulated."""
+    from incandescent.spectra.lines import species_xyz
+
+    vol, s = inputs.volume, inputs.settings
+    kappa = trilinear(vol.absorption_per_m, p)
+    fractions = {name: trilinear(grid, p) for name, grid in vol.species.items()}
+    temp = trilinear(vol.temperature_K, p)
+    emits = ((kappa > 0) | np.any([f > 0 for f in fractions.values()], axis=0)) & (
+        temp >= inputs.lut.t_min_K
+    )
+    if not emits.any():
+        transmittance[r] *= np.exp(-kappa * ds_m)
+        return emits
+    hot = temp[emits]
+    eta = kappa[emits, None] * _emission_xyz(hot, inputs)
+    for name, fraction in fractions.items():
+        eta += fraction[emits, None] * species_xyz(inputs.line_table, name, hot, s.observer)
+    if vol.emission_scale is not None:
+        eta *= trilinear(vol.emission_scale, p[emits])[:, None]
+    x = kappa[emits] * ds_m[emits]
+    safe = np.where(x > 0, kappa[emits], 1.0)
+    weight = np.where(x > 0, -np.expm1(-x) / safe, ds_m[emits])
+    xyz[r[emits]] += (transmittance[r[emits]] * weight)[:, None] * eta
+    transmittance[r] *= np.exp(-kappa * ds_m)
     return emits
