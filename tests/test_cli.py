@@ -356,3 +356,23 @@ def test_render_hdf5_with_declared_axis_order(tmp_path):
     result = _run("render", path, "--axes", "zyx", "-o", out, "--width", 8, "--height", 8)
     assert result.exit_code == 0, result.output
     assert read_exr(out)[0].max() > 0
+
+
+def test_render_with_species_fractions_and_grids(tmp_path):
+    temp = np.full((6, 6, 6), 1900.0)
+    lithium = np.zeros_like(temp)
+    lithium[2:4, 2:4, 2:4] = 0.5
+    path = tmp_path / "coloured.npz"
+    np.savez(path, temperature=temp, lithium=lithium)
+    stats = tmp_path / "s.json"
+    base = ["render", path, "--width", 6, "--height", 6, "--absorption", 0.0]
+    plain = _run(*base, "-o", tmp_path / "plain.exr")
+    assert plain.exit_code == 0, plain.output
+    lit = _run(
+        *base, "-o", tmp_path / "lit.exr", "--species", "Na=0.05,Li=lithium", "--stats", stats
+    )
+    assert lit.exit_code == 0, lit.output
+    assert read_exr(tmp_path / "plain.exr")[0].max() == 0  # κ = 0: no continuum
+    assert read_exr(tmp_path / "lit.exr")[0].max() > 0  # the lines alone glow
+    bad = _run(*base, "-o", tmp_path / "b.exr", "--species", "Na")
+    assert bad.exit_code == 2 and "NAME=FRACTION or NAME=GRID" in bad.output

@@ -75,9 +75,14 @@ def volume_from_section(spec: VolumeSection, remap: Remap) -> Volume:
         roles[role] = _grid_name(role, names, source.names, required=False)
     if spec.absorption is not None:
         roles["absorption"] = None
-    read = source.read(sorted({n for n in roles.values() if n}))
+    species_grids = {k: v for k, v in spec.species.items() if isinstance(v, str)}
+    read = source.read(sorted({n for n in roles.values() if n} | set(species_grids.values())))
     grids = read.arrays
     by_role: dict[str, Any] = {role: grids[name] for role, name in roles.items() if name}
+    by_role["species"] = {
+        name: grids[value] if isinstance(value, str) else value
+        for name, value in spec.species.items()
+    }
     if spec.preset:
         out = apply_preset(spec.preset, grids, spec.preset_options, names)
         by_role["temperature"], by_role["absorption"] = (
@@ -99,6 +104,7 @@ def volume_from_section(spec: VolumeSection, remap: Remap) -> Volume:
         remap=remap,
         source=str(source.path),
         sodium_fraction=by_role.get("sodium_fraction"),
+        species=by_role.get("species"),
     )
 
 
@@ -107,10 +113,15 @@ def _z_up_to_y_up(grids: dict, origin, voxel_size_m):
 
     ``a'[i, k, n_y − 1 − j] = a[i, j, k]``; the box corner moves to (o_x, o_z, −(o_y + L_y)).
     """
-    rotated = {
-        role: None if g is None else np.flip(np.swapaxes(np.asarray(g), 1, 2), axis=2)
-        for role, g in grids.items()
-    }
+
+    def rotate(g):
+        if g is None or np.ndim(g) == 0:
+            return g
+        if isinstance(g, dict):  # species fractions
+            return {name: rotate(v) for name, v in g.items()}
+        return np.flip(np.swapaxes(np.asarray(g), 1, 2), axis=2)
+
+    rotated = {role: rotate(g) for role, g in grids.items()}
     if origin is None:
         return rotated, None
     length_y = np.asarray(grids["temperature"]).shape[1] * (voxel_size_m or 0.0)

@@ -112,6 +112,12 @@ def render(
     ),
     sodium: float = typer.Option(None, help="Paper mode: constant sodium fraction 0..1."),
     paper_exponent: float = typer.Option(None, help="Paper mode: brightness ∝ T^exponent [1.5]."),
+    species: str = typer.Option(
+        None,
+        help="Emitting species, NAME=FRACTION or NAME=GRID, comma-separated (e.g. Na=0.02,"
+        "Li=lithium); lines from the shipped table or --line-table.",
+    ),
+    line_table: Path = typer.Option(None, help="Species line table (.csv/.toml) [shipped]."),
     stats: Path = typer.Option(None, help="Write render statistics (JSON) to this file."),
     overwrite: bool = typer.Option(None, "--overwrite", help="Replace existing output files."),
 ) -> None:
@@ -152,6 +158,22 @@ def _scene(source: Path, overrides: dict):
     return scene_from_dict({"volume": {"path": str(source)}}, None, overrides, source=str(source))
 
 
+def _species(text: str | None) -> dict | None:
+    """``Na=0.02,Li=lithium`` → {"Na": 0.02, "Li": "lithium"} (a number or a grid name)."""
+    if text is None:
+        return None
+    out: dict[str, float | str] = {}
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        name, sep, value = item.partition("=")
+        if not sep or not name or not value:
+            raise _fail(f"--species entries must be NAME=FRACTION or NAME=GRID; got {item!r}")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            out[name] = value
+    return out
+
+
 def _overrides(f: dict) -> dict:
     """Nested scene keys for the flags that were given (None = not given)."""
     low_high = None
@@ -170,6 +192,7 @@ def _overrides(f: dict) -> dict:
             "voxel_size_m": f["voxel_size"],
             "preset": f["preset"],
             "up_axis": f["up_axis"],
+            "species": _species(f["species"]),
             "axes": f["axes"],
             "grids": {"temperature": f["temperature_grid"]},
             "temperature": {
@@ -193,6 +216,7 @@ def _overrides(f: dict) -> dict:
             "space": f["space"],
             "brightness": f["brightness"],
             "paper_exponent": f["paper_exponent"],
+            "line_table": None if f["line_table"] is None else str(f["line_table"]),
         },
         "display": {
             "exposure_ev": f["exposure"],

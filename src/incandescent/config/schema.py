@@ -139,6 +139,8 @@ class VolumeSection(_Section):
     origin_m: Vec3 | None = None
     #: The source's up axis: "y" (ours, Houdini) or "z" (Blender); None: the preset's, else "y".
     up_axis: Literal["y", "z"] | None = None
+    #: Emitting species: name → fraction grid name in the file, or a constant fraction (0..1).
+    species: dict[str, str | float] = Field(default_factory=dict)
     #: Order of the stored array axes (e.g. "zyx") where the file does not say it.
     axes: Literal["xyz", "xzy", "yxz", "yzx", "zxy", "zyx"] | None = None
 
