@@ -221,6 +221,8 @@ class RenderSection(_Section):
     paper_gain: float = RenderSettings.paper_gain
     paper_min_K: float = RenderSettings.paper_min_K
     line_table: str | None = None
+    spectral_bins: int = RenderSettings.spectral_bins
+    soot_alpha: float = RenderSettings.soot_alpha
 
     @model_validator(mode="after")
     def _check(self) -> RenderSection:

@@ -14,6 +14,7 @@ from incandescent.render.backends import MarchInputs, resolve_backend, run_march
 from incandescent.render.film import HDRImage, resolve_pixels
 from incandescent.render.rays import prepare_rays
 from incandescent.render.settings import RenderSettings
+from incandescent.spectra.bins import bin_luts, make_bins
 from incandescent.spectra.lines import LineTable, build_species_lut, load_lines, species_names
 from incandescent.spectra.lut import EmissionLUT, build_emission_lut
 from incandescent.volume import Volume
@@ -85,7 +86,30 @@ def _march_inputs(volume, camera, settings, backend: str) -> MarchInputs:
             for name in volume.species
         )
     lut = emission_lut(volume, settings)
-    return MarchInputs(rays, volume, lut, cells, settings, sodium, species, table)
+    spectral = _spectral_tables(volume, settings) if settings.spectral_bins else ()
+    return MarchInputs(rays, volume, lut, cells, settings, sodium, species, table, spectral)
+
+
+def _spectral_tables(volume: Volume, settings: RenderSettings):
+    if volume.species:
+        raise ValueError(
+            "spectral_bins with species lines is not supported yet; render species with "
+            "spectral_bins = 0 (grey κ)"
+        )
+    return _cached_bins(
+        settings.spectral_bins,
+        float(settings.soot_alpha),
+        _lut_t_max(volume),
+        settings.observer,
+        settings.constants,
+    )
+
+
+@functools.lru_cache(maxsize=8)
+def _cached_bins(n: int, alpha: float, t_max_K: float, observer: str, constants: str):
+    bins = make_bins(n, alpha, observer)
+    tables = bin_luts(bins, t_max_K, observer, constants)
+    return tuple(zip((float(s) for s in bins.kappa_scale), tables, strict=True))
 
 
 @functools.lru_cache(maxsize=8)

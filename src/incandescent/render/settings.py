@@ -43,6 +43,9 @@ class RenderSettings:
         method: normalised chromaticity × T^paper_exponent summed along the ray, capped at 255).
     paper_exponent, paper_gain, paper_min_K: paper mode's brightness exponent (1.5), gain per
         voxel of path, and temperature below which a sample does not contribute.
+    spectral_bins: 0 for the grey-κ table mode; N > 0 marches N spectral bins with
+        κ_λ = κ·(550 nm / λ)^soot_alpha (κ is the volume's absorption at 550 nm).
+    soot_alpha: the soot exponent α (1: Rayleigh limit; 1.39: Hottel & Broughton 1932).
     line_table: a species line table file (.csv/.toml) for the volume's species fractions;
         None: the shipped table (``incandescent.spectra.lines``).
     """
@@ -64,6 +67,8 @@ class RenderSettings:
     paper_gain: float = PAPER_GAIN
     paper_min_K: float = PAPER_MIN_K
     line_table: str | None = None
+    spectral_bins: int = 0
+    soot_alpha: float = 1.0
 
     def __post_init__(self) -> None:
         _positive_int(self.width, "width")
@@ -80,6 +85,16 @@ class RenderSettings:
         _validate.choice(self.brightness, "brightness law", BRIGHTNESS_LAWS)
         _validate.positive_scalar(self.paper_gain, "paper_gain")
         _validate.positive_scalar(self.paper_min_K, "paper_min_K")
+        if isinstance(self.spectral_bins, bool) or not isinstance(self.spectral_bins, int):
+            raise ValueError(f"spectral_bins must be an integer; got {self.spectral_bins!r}")
+        if not 0 <= self.spectral_bins <= 64:
+            raise ValueError(f"spectral_bins must be in 0..64; got {self.spectral_bins!r}")
+        if not np.isfinite(float(self.soot_alpha)) or not 0 <= self.soot_alpha <= 4:
+            raise ValueError(f"soot_alpha must be in [0, 4]; got {self.soot_alpha!r}")
+        if self.spectral_bins and self.brightness == "paper":
+            raise ValueError(
+                "spectral_bins apply to brightness 'physical' only (the paper ignores absorption)"
+            )
         exponent = float(self.paper_exponent)
         if not np.isfinite(exponent) or not 0 <= exponent <= 8:
             raise ValueError(f"paper_exponent must be in [0, 8]; got {self.paper_exponent!r}")

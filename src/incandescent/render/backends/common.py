@@ -41,6 +41,8 @@ class MarchInputs:
     #: physical mode: (species name, its T ↦ XYZ-per-metre table) for each fraction grid
     species_luts: tuple[tuple[str, EmissionLUT], ...] = ()
     line_table: LineTable | None = None  # the lines behind species_luts (the reference uses them)
+    #: spectral mode: the bins and, per bin, (κ scale (λ_ref/λ_b)^α, its T ↦ XYZ table)
+    spectral: tuple[tuple[float, EmissionLUT], ...] = ()
 
 
 @dataclass(frozen=True)

@@ -36,6 +36,9 @@ class _Kernel:
         self.medium, self.scale, self.sodium = _device_grids(m, vol)
         self.lut = m.Float(_table4(lut.values))
         self.paper = s.brightness == "paper"
+        self.bins = [
+            (np.float32(scale), m.Float(_table4(t.values))) for scale, t in inputs.spectral
+        ]
         self.species = [
             (_device_grid(m, vol, ("species", name), vol.species[name]), m.Float(_table4(t.values)))
             for name, t in inputs.species_luts
@@ -164,6 +167,23 @@ class _Kernel:
             eta = eta * self.trilinear(self.scale, c)
         return tr * e, dr.fma(eta, tr * weight, L)
 
+    def integrate_spectral(self, tr, L, kappa, temp, c, ds_m, fractions):
+        """Spectral mode: per bin b, κ_b = κ·(λ_ref/λ_b)^α and L += Tr_b·(1 − e^{−κ_bΔs})·XYZ_b(T);
+        ``tr`` is the list of per-bin transmittances."""
+        dr = self.dr
+        position = self.lut_position(temp)
+        valid = temp >= self.lut_t_min
+        scale = 1.0 if self.scale is None else self.trilinear(self.scale, c)
+        updated = []
+        for (kappa_scale, table), tr_b in zip(self.bins, tr, strict=True):
+            x = kappa * (ds_m * kappa_scale)
+            e = dr.exp(-x)
+            alpha = dr.select(x < THIN_STEP, x * (1.0 - x * (0.5 - x * (1.0 / 6.0))), 1.0 - e)
+            xyz = dr.select(valid, self.lookup(table, position), 0.0)
+            L = dr.fma(xyz, tr_b * alpha * scale, L)
+            updated.append(tr_b * e)
+        return updated, L
+
     def emission_coefficient(self, kappa, temp, fractions):
         """η = κ·XYZ(B(T)) + Σ_s f_s·XYZ_s(T), per metre of path; 0 below the tables' T_min."""
         position = self.lut_position(temp)
@@ -188,12 +208,17 @@ class _Kernel:
         tr, L = dr.if_stmt(
             (tr, L, kappa, temp, c, ds_m, fractions),
             contributes,
-            self.accumulate_paper if self.paper else self.integrate,
+            self._accumulator(),
             lambda tr, L, kappa, temp, c, ds_m, fractions: (tr, L),
         )
         first = contributes & (depth == np.inf)
         depth = dr.select(first, t_mid * self.ds_per_voxel, depth)
         return k + 1.0, tr, L, n + 1, depth
+
+    def _accumulator(self):
+        if self.paper:
+            return self.accumulate_paper
+        return self.integrate_spectral if self.bins else self.integrate
 
     # --- empty space --------------------------------------------------------------------------
     def cell_index(self, p):
@@ -292,9 +317,17 @@ def trace(inputs: MarchInputs, m):
         b = dr.minimum(dr.fma(k + j, dt, t0), t1)
         return a, b
 
+    def alive(tr):
+        if not K.bins:
+            return tr >= K.min_tr
+        most = tr[0]
+        for tr_b in tr[1:]:
+            most = dr.maximum(most, tr_b)
+        return most >= K.min_tr
+
     def cond(k, tr, L, n, depth):
         a, _ = segment(k)
-        return (a < t1) & (tr >= K.min_tr)
+        return (a < t1) & alive(tr)
 
     def skip(k, tr, L, n, depth, p, t_mid, ds_m):
         return K.skip(k, p, (o, d, t0, j)), tr, L, n, depth
@@ -307,8 +340,11 @@ def trace(inputs: MarchInputs, m):
             return K.sample(*args)
         return dr.if_stmt(args, K.is_empty(args[5]), skip, K.sample)
 
-    state = (m.Float(0.0), m.Float(1.0), m.Array3f(0.0), m.UInt(0), m.Float(np.inf))
+    tr0 = [m.Float(1.0) for _ in K.bins] if K.bins else m.Float(1.0)
+    state = (m.Float(0.0), tr0, m.Array3f(0.0), m.UInt(0), m.Float(np.inf))
     _, tr, L, n, depth = dr.while_loop(state, cond, body, labels=("k", "tr", "L", "n", "depth"))
+    if K.bins:  # report the mean transmittance over the bins
+        tr = sum(tr[1:], tr[0]) * (1.0 / len(K.bins))
     return L, tr, n, depth
 
 
