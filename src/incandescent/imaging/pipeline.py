@@ -8,8 +8,8 @@ Stages, in order (DESIGN.md §3, "Colour output"):
 3. exposure — physical camera (ISO 12232) when ``iso``, ``shutter_s`` and ``f_number`` are all
    given, else auto exposure (percentile of luminance) when ``auto_exposure``, else none; in
    every case ``exposure_ev`` is applied on top as exposure compensation;
-4. tone map (clip, Reinhard, filmic);
-5. gamut map (negative components removed);
+4. gamut map (negative components removed, on the linear HDR values);
+5. tone map (clip, Reinhard, filmic);
 6. sRGB OETF (IEC 61966-2-1);
 7. quantise to 8 or 16 bits.
 """
@@ -175,5 +175,7 @@ def to_display(
     target_white = np.array([*space.white_xy, 1.0 - sum(space.white_xy)]) / space.white_xy[1]
     balanced = adapt(arr, _source_white(settings, hottest_K), target_white)
     rgb = xyz_to_rgb(balanced, space) * exposure_scale(balanced[..., 1], settings)
-    mapped = gamut_map(tonemap(rgb, settings.tonemap), settings.gamut, space)
+    # Gamut-map the linear HDR values first: a per-channel tone curve applied to out-of-gamut
+    # colours (negative components) can leave pixels with luminance <= 0 — black highlights.
+    mapped = tonemap(gamut_map(rgb, settings.gamut, space), settings.tonemap)
     return quantize(srgb_oetf(mapped), settings.bits)
