@@ -376,3 +376,11 @@ def test_render_with_species_fractions_and_grids(tmp_path):
     assert read_exr(tmp_path / "lit.exr")[0].max() > 0  # the lines alone glow
     bad = _run(*base, "-o", tmp_path / "b.exr", "--species", "Na")
     assert bad.exit_code == 2 and "NAME=FRACTION or NAME=GRID" in bad.output
+
+
+@pytest.mark.parametrize("name", ["sodium", "copper", "clean"])
+def test_species_demos_render(tmp_path, name):
+    out = tmp_path / f"{name}.png"
+    result = _run("demo", name, "--size", 24, "--width", 16, "--height", 24, "-o", out)
+    assert result.exit_code == 0, result.output
+    assert np.asarray(Image.open(out)).max() > 50

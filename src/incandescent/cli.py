@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import time
@@ -26,7 +27,8 @@ app = typer.Typer(
 )
 console = Console(stderr=True)
 
-DEMOS = ("plume", "sparse", "sphere", "plate")
+COLOURED_FLAMES = ("sodium", "lithium", "strontium", "copper", "barium")
+DEMOS = ("plume", "sparse", "sphere", "plate", *COLOURED_FLAMES, "sooty", "clean")
 
 
 def _fail(message: str) -> typer.Exit:
@@ -284,16 +286,26 @@ def _summary(image, written: list[Path]) -> None:
         console.print(f"  wrote {path}", highlight=False)
 
 
+def _coloured_flame(name: str, n: int) -> Volume:
+    from incandescent import species_scenes
+
+    return species_scenes.coloured_flame(name, n)
+
+
 def _demo_volume(name: str, size: int | None) -> Volume:
-    from incandescent import scenes
+    from incandescent import scenes, species_scenes
     from incandescent.paper.scenes import paper_sphere
 
     makers: dict[str, Callable[[int], Volume]] = {
         "plume": scenes.plume,
         "sparse": scenes.sparse_flame,
         "sphere": paper_sphere,
+        "sooty": species_scenes.sooty_flame,
+        "clean": species_scenes.clean_flame,
     }
-    default_size = {"plume": 128, "sparse": 128, "sphere": 64}[name]
+    for flame in COLOURED_FLAMES:
+        makers[flame] = functools.partial(_coloured_flame, flame)
+    default_size = {"plume": 128, "sparse": 128, "sphere": 64}.get(name, 96)
     return makers[name](size or default_size)
 
 
@@ -337,9 +349,14 @@ def demo(
         _check_outputs([output], overwrite)
         with console.status(f"building the {name} scene…"):
             volume = _demo_volume(name, size)
+        display, camera = None, None
+        if name in COLOURED_FLAMES + ("sooty", "clean"):  # line colours lie far out of sRGB
+            from incandescent.species_scenes import flame_camera
+
+            display, camera = api.DisplaySettings(gamut="clip"), flame_camera()
         with console.status(f"rendering {settings.width}×{settings.height}…"):
-            image = api.render(volume, settings=settings, backend=backend)
-        written = [api.save_image(image, output, overwrite=overwrite)]
+            image = api.render(volume, camera, settings, backend=backend)
+        written = [api.save_image(image, output, display, overwrite=overwrite)]
     except (ValueError, TypeError, FileNotFoundError, FileExistsError, RuntimeError) as error:
         raise _fail(str(error)) from None
     _summary(image, written)
