@@ -24,7 +24,7 @@ The XYZ returned by :func:`species_xyz` therefore has the units of
 :func:`incandescent.spectra.blackbody.blackbody_xyz` (the value the renderer multiplies by κ·Δs),
 so a pure-sodium voxel at 2000 K is as bright as a blackbody voxel at 2000 K and only differs in
 colour; away from T_ref the brightness follows the Boltzmann factors exactly (sodium at 1500 K is
-exp(−2.10 eV/k·(1/1500 − 1/2000)) ≈ 3.5e-4 of its 2000 K luminance; it saturates, instead of
+exp(−2.10 eV/k·(1/1500 − 1/2000)) ≈ 0.017 of its 2000 K luminance; it saturates, instead of
 growing like T⁴, as T → ∞). Line emission here is emission only: lines do not add absorption.
 
 Deposit. A line of width 0 at λ_c between grid samples λ_i ≤ λ_c < λ_{i+1} (step h) puts
