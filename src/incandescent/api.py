@@ -70,7 +70,10 @@ def volume_from_section(spec: VolumeSection, remap: Remap) -> Volume:
     source = open_grids(spec.path, spec.axes)
     names = spec.grids.given()
     core_roles = PRESET_ROLES if spec.preset else ("temperature",)
-    roles = {r: _grid_name(r, names, source.names, not spec.preset) for r in core_roles}
+    try:
+        roles = {r: _grid_name(r, names, source.names, not spec.preset) for r in core_roles}
+    except ValueError as error:
+        raise ValueError(f"{source.path}: {error}") from None
     for role in OPTIONAL_ROLES:
         roles[role] = _grid_name(role, names, source.names, required=False)
     if spec.absorption is not None:

@@ -8,7 +8,9 @@ with ``allow_pickle=False``. Axis order is x, y, z (``a[i, j, k]`` is the voxel 
 
 from __future__ import annotations
 
+import struct
 import zipfile
+import zlib
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,10 +45,24 @@ class GridSource:
     notes: Mapping[str, str] = field(default_factory=dict)
 
 
+#: What NumPy, zipfile and zlib raise on corrupt or truncated .npy/.npz files (found by fuzzing).
+_CORRUPT = (
+    ValueError,
+    OSError,
+    EOFError,
+    zipfile.BadZipFile,
+    zlib.error,
+    struct.error,
+    UnicodeDecodeError,
+    SyntaxError,
+    NotImplementedError,
+)
+
+
 def _np_load(path: Path):
     try:
         return np.load(path, allow_pickle=False)
-    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as error:
+    except _CORRUPT as error:
         raise ValueError(f"{path}: not a readable {path.suffix} file ({error})") from None
 
 
@@ -60,7 +76,7 @@ def _npz_reader(path: Path, data) -> Callable[[Iterable[str]], Grids]:
                 raise ValueError(
                     f"{path}: no grid named {name!r}; the file has: {', '.join(data.files)}"
                 ) from None
-            except (ValueError, OSError, zipfile.BadZipFile) as error:
+            except _CORRUPT as error:
                 raise ValueError(f"{path}: grid {name!r} cannot be read ({error})") from None
         return Grids(out)
 
