@@ -384,3 +384,16 @@ def test_species_demos_render(tmp_path, name):
     result = _run("demo", name, "--size", 24, "--width", 16, "--height", 24, "-o", out)
     assert result.exit_code == 0, result.output
     assert np.asarray(Image.open(out)).max() > 50
+
+
+def test_animate_with_an_orbiting_camera(tmp_path):
+    from incandescent.scenes import plume_temperature
+
+    for i in range(2):
+        np.save(tmp_path / f"f_{i}.npy", plume_temperature(12))
+    out = tmp_path / "orbit"
+    args = ["animate", str(tmp_path / "f_*.npy"), "-o", out, "--width", 16, "--height", 16]
+    result = _run(*args, "--orbit", 90)
+    assert result.exit_code == 0, result.output
+    first, second = (np.asarray(Image.open(p)) for p in sorted(out.glob("frame_*.png")))
+    assert not np.array_equal(first, second)  # same volume, camera moved

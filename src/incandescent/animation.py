@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -54,7 +55,7 @@ def render_video(
     volume_at: Callable[[int], Volume],
     n_frames: int,
     output: str | Path,
-    camera: Camera,
+    camera: Camera | Callable[[int], Camera],
     settings: RenderSettings,
     display: DisplaySettings,
     backend: str | None = "auto",
@@ -62,13 +63,20 @@ def render_video(
     progress: bool = True,
     fps: float = 25.0,
 ) -> AnimationSummary:
-    """Render frames 0 … n_frames − 1 of ``volume_at`` to ``output`` (.mp4, .gif or a folder)."""
+    """Render frames 0 … n_frames − 1 of ``volume_at`` to ``output`` (.mp4, .gif or a folder),
+    seen by ``camera`` — one camera, or a path ``frame ↦ Camera`` (``incandescent.camera.paths``).
+    """
+    camera_at = camera if callable(camera) else (lambda _: camera)
 
-    def render_frame(volume: Volume) -> np.ndarray:
-        return display_pixels(render(volume, camera, settings, backend=backend), display)
+    def frame(index: int) -> Any:  # the volume travels with its camera to render_frame
+        return volume_at(index), camera_at(index)
+
+    def render_frame(item: Any) -> np.ndarray:
+        volume, cam = item
+        return display_pixels(render(volume, cam, settings, backend=backend), display)
 
     return animate(
-        volume_at, n_frames, output, render_frame, fps=fps, overwrite=overwrite, progress=progress
+        frame, n_frames, output, render_frame, fps=fps, overwrite=overwrite, progress=progress
     )
 
 

@@ -434,6 +434,9 @@ def animate(
         0.0, help="Exposure compensation in EV over the fixed exposure."
     ),
     fps: float = typer.Option(25.0, help="Frames per second of the video."),
+    orbit: float = typer.Option(
+        0.0, help="Orbit the camera this many degrees about the vertical axis over the video."
+    ),
     backend: str = typer.Option("auto", help="auto | cpu | cuda | reference."),
     overwrite: bool = typer.Option(False, help="Replace an existing video (frames are reused)."),
 ) -> None:
@@ -444,6 +447,7 @@ def animate(
     """
     from incandescent import api
     from incandescent.animation import expand_sequence, fixed_display, key_frame, render_video
+    from incandescent.camera import paths as paths_module
 
     try:
         paths = expand_sequence(pattern)
@@ -471,7 +475,7 @@ def animate(
             volume_at,
             len(paths),
             output,
-            camera,
+            paths_module.orbit(camera, len(paths), orbit) if orbit else camera,
             settings,
             display,
             backend=backend,
