@@ -24,7 +24,8 @@ from incandescent import __version__
 from incandescent.colorimetry import xyz_to_rgb, xyz_to_xy
 from incandescent.constants import CODATA_2018, K_M
 from incandescent.imaging import DisplaySettings, to_display
-from incandescent.io.images import atomic_write, write_png
+from incandescent.io.images import write_png
+from incandescent.io.output import write_text
 from incandescent.spectra import blackbody_xyz
 
 DEFAULT_OUT = Path(__file__).resolve().parent.parent / "docs"
@@ -213,11 +214,7 @@ def _draw_ticks(image: NDArray[np.uint8], width: int) -> NDArray[np.uint8]:
 
 
 def _write_text(path: Path, text: str) -> Path:
-    def write(tmp: Path) -> None:
-        with open(tmp, "x", encoding="utf-8", newline="\n") as handle:
-            handle.write(text)
-
-    return atomic_write(path, write, overwrite=True)
+    return write_text(path, text, overwrite=True)
 
 
 def main(argv: Sequence[str] | None = None) -> list[Path]:

@@ -27,8 +27,8 @@ from numpy.typing import NDArray
 from incandescent import __version__, blackbody_xyz
 from incandescent.colorimetry import xyz_to_uv_prime
 from incandescent.imaging import DisplaySettings, auto_exposure_scale, to_display
-from incandescent.io.images import atomic_write, write_png
-from incandescent.io.output import display_pixels
+from incandescent.io.images import write_png
+from incandescent.io.output import display_pixels, write_text
 from incandescent.paper.colour import paper_rgb, paper_spectrum_xyz, truncation_shift_uv
 from incandescent.paper.demos import plate_camera
 from incandescent.paper.scenes import PlateScene, paper_sphere
@@ -356,11 +356,7 @@ cut ends together). Differences of a few thousandths in u′v′ are visible sid
 
 # --- writing -----------------------------------------------------------------------------------
 def _write_text(path: Path, text: str) -> Path:
-    def write(tmp: Path) -> None:
-        with open(tmp, "x", encoding="utf-8", newline="\n") as handle:
-            handle.write(text)
-
-    return atomic_write(path, write, overwrite=True)
+    return write_text(path, text, overwrite=True)
 
 
 def _png(path: Path, pixels: NDArray[np.uint8], title: str) -> Path:

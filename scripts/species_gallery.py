@@ -26,8 +26,8 @@ from numpy.typing import NDArray
 from incandescent import __version__
 from incandescent.colorimetry import xyz_to_xy
 from incandescent.imaging import DisplaySettings, to_display
-from incandescent.io.images import atomic_write, write_png
-from incandescent.io.output import display_pixels
+from incandescent.io.images import write_png
+from incandescent.io.output import display_pixels, write_text
 from incandescent.render import HDRImage, RenderSettings, render
 from incandescent.species_scenes import (
     CLEAN_SPECIES,
@@ -321,11 +321,7 @@ little, nothing turns black).
 
 # --- writing -----------------------------------------------------------------------------------
 def _write_text(path: Path, text: str) -> Path:
-    def write(tmp: Path) -> None:
-        with open(tmp, "x", encoding="utf-8", newline="\n") as handle:
-            handle.write(text)
-
-    return atomic_write(path, write, overwrite=True)
+    return write_text(path, text, overwrite=True)
 
 
 def _png(path: Path, pixels: NDArray[np.uint8], title: str) -> Path:

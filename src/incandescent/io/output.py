@@ -56,9 +56,15 @@ def display_pixels(image: HDRImage, display: DisplaySettings | None = None) -> n
 def write_json(path: str | Path, data: dict, overwrite: bool = False) -> Path:
     """Write ``data`` as JSON atomically."""
     text = json.dumps(data, indent=2, sort_keys=True, default=_jsonable)
+    return write_text(path, text + "\n", overwrite=overwrite)
+
+
+def write_text(path: str | Path, text: str, overwrite: bool = False) -> Path:
+    """Write UTF-8 ``text`` atomically (temp file + rename), "\\n" line ends."""
 
     def write(tmp: Path) -> None:
-        tmp.write_text(text + "\n")
+        with open(tmp, "x", encoding="utf-8", newline="\n") as handle:
+            handle.write(text)
 
     return atomic_write(Path(path), write, overwrite=overwrite)
 

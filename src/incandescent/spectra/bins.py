@@ -81,6 +81,7 @@ def bin_luts(
     constants: str = "codata2018",
 ) -> list[EmissionLUT]:
     """One 1/T-uniform table per bin (same spacing as the blackbody table)."""
+
     def one_bin(b: int):
         return lambda t: bin_xyz(bins, t, observer, constants)[..., b, :]
 

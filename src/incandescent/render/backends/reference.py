@@ -47,6 +47,13 @@ def _paper_step(inputs, r, p, ds_m, xyz) -> np.ndarray:
     return hot
 
 
+def _segment(rays, r, k, step_voxels: float):
+    """Segment k of rays ``r`` (see ``common``): its ends a, b (voxels) and midpoint position."""
+    a = np.maximum(rays.t_enter[r] + (k - 1 + rays.jitter[r]) * step_voxels, rays.t_enter[r])
+    b = np.minimum(rays.t_enter[r] + (k + rays.jitter[r]) * step_voxels, rays.t_exit[r])
+    return a, b, rays.origin[r] + rays.direction[r] * (0.5 * (a + b))[:, None]
+
+
 def march(inputs: MarchInputs) -> MarchResult:
     """March every ray of ``inputs.rays`` front to back; float64 throughout."""
     start = time.perf_counter()
@@ -62,11 +69,7 @@ def march(inputs: MarchInputs) -> MarchResult:
         return _march_spectral(inputs, start)
     while active.size:
         r = active
-        a = np.maximum(
-            rays.t_enter[r] + (k[r] - 1 + rays.jitter[r]) * s.step_voxels, rays.t_enter[r]
-        )
-        b = np.minimum(rays.t_enter[r] + (k[r] + rays.jitter[r]) * s.step_voxels, rays.t_exit[r])
-        p = rays.origin[r] + rays.direction[r] * (0.5 * (a + b))[:, None]
+        a, b, p = _segment(rays, r, k[r], s.step_voxels)
         samples += r.size
         if s.brightness == "paper":
             emits = _paper_step(inputs, r, p, (b - a) * vol.voxel_size_m, xyz)
@@ -151,11 +154,7 @@ def _march_spectral(inputs: MarchInputs, start: float) -> MarchResult:
     k, samples, active = np.zeros(n), 0, np.arange(n)
     while active.size:
         r = active
-        a = np.maximum(
-            rays.t_enter[r] + (k[r] - 1 + rays.jitter[r]) * s.step_voxels, rays.t_enter[r]
-        )
-        b = np.minimum(rays.t_enter[r] + (k[r] + rays.jitter[r]) * s.step_voxels, rays.t_exit[r])
-        p = rays.origin[r] + rays.direction[r] * (0.5 * (a + b))[:, None]
+        a, b, p = _segment(rays, r, k[r], s.step_voxels)
         samples += r.size
         kappa, temp = trilinear(vol.absorption_per_m, p), trilinear(vol.temperature_K, p)
         emits = (kappa > 0) & (temp >= inputs.lut.t_min_K)
