@@ -12,7 +12,7 @@ from incandescent.camera import Camera, default_camera
 from incandescent.colorimetry import rgb_to_xyz
 from incandescent.render.backends import MarchInputs, resolve_backend, run_march
 from incandescent.render.film import HDRImage, resolve_pixels
-from incandescent.render.rays import prepare_rays
+from incandescent.render.rays import prepare_rays, ray_spec
 from incandescent.render.settings import RenderSettings
 from incandescent.spectra.bins import bin_luts, make_bins
 from incandescent.spectra.lines import LineTable, build_species_lut, load_lines, species_names
@@ -73,7 +73,7 @@ def _march_inputs(volume, camera, settings, backend: str) -> MarchInputs:
         cells = volume.macrocells(
             settings.macrocell_voxels, settings.paper_min_K if paper else None
         )
-    rays = prepare_rays(camera, volume, settings)
+    rays = prepare_rays(camera, volume, settings) if backend == "reference" else None
     sodium = None
     if paper and volume.sodium_fraction is not None:
         sodium = emission_lut(volume, settings, "sodium")
@@ -87,7 +87,8 @@ def _march_inputs(volume, camera, settings, backend: str) -> MarchInputs:
         )
     lut = emission_lut(volume, settings)
     spectral = _spectral_tables(volume, settings) if settings.spectral_bins else ()
-    return MarchInputs(rays, volume, lut, cells, settings, sodium, species, table, spectral)
+    spec = ray_spec(camera, volume, settings)
+    return MarchInputs(rays, volume, lut, cells, settings, sodium, species, table, spectral, spec)
 
 
 def _spectral_tables(volume: Volume, settings: RenderSettings):
@@ -130,21 +131,25 @@ def _species_lut(path: str | None, name: str, t_max_K: float, observer: str) -> 
     return build_species_lut(table, name, t_max_K, observer=observer)
 
 
-def _scatter_rays(values: np.ndarray, inputs: MarchInputs, fill: float, reduce=np.mean):
-    tail = values.shape[1:]
-    full = np.full((inputs.rays.n_total,) + tail, fill, dtype=np.float64)
-    full[inputs.rays.ray_index] = values
+def _scatter_rays(values: np.ndarray, index, inputs: MarchInputs, fill: float, reduce=np.mean):
+    """Per-ray values (rows ``index`` of all camera rays, or all of them) → pixels."""
     s = inputs.settings
+    full = values
+    if index is not None:
+        n_total = s.width * s.height * s.supersample**2
+        full = np.full((n_total,) + values.shape[1:], fill, dtype=np.float64)
+        full[index] = values
     return resolve_pixels(full, s.width, s.height, s.supersample, reduce)
 
 
 def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRImage:
-    values = _scatter_rays(result.xyz, inputs, 0.0)
+    values = _scatter_rays(result.xyz, result.ray_index, inputs, 0.0)
     if inputs.settings.brightness == "paper":  # the paper's RGB sums, capped at 255
         values = rgb_to_xyz(np.minimum(values, 255.0), "srgb")
     xyz = values.astype(np.float32)
-    tr = _scatter_rays(result.transmittance, inputs, 1.0).astype(np.float32)
-    depth = _scatter_rays(result.depth_m, inputs, np.inf, np.min).astype(np.float32)
+    index = result.ray_index
+    tr = _scatter_rays(result.transmittance, index, inputs, 1.0).astype(np.float32)
+    depth = _scatter_rays(result.depth_m, index, inputs, np.inf, np.min).astype(np.float32)
     s = inputs.settings
     metadata = {
         "backend": backend,

@@ -81,3 +81,57 @@ def prepare_rays(camera: Camera, volume: Volume, settings: RenderSettings) -> Ra
     return RayBatch(
         origin[hit], direction[hit], t_enter[hit], t_exit[hit], offsets, hit, origin.shape[0]
     )
+
+
+@dataclass(frozen=True)
+class RaySpec:
+    """Everything a kernel needs to generate the camera rays itself (one lane per ray, in the
+    order of :meth:`Camera.generate_rays`), clip them to the grid box and jitter them."""
+
+    eye: tuple[float, float, float]
+    right: tuple[float, float, float]
+    up: tuple[float, float, float]
+    forward: tuple[float, float, float]
+    perspective: bool
+    half_width: float  # film half-extent along ``right``: tan(fov/2)·aspect, or metres (ortho)
+    half_height: float
+    width: int
+    height: int
+    supersample: int
+    origin_m: tuple[float, float, float]
+    voxel_size_m: float
+    shape: tuple[int, int, int]
+    jitter: bool
+    key: int  # lowbias32(seed + golden ratio): XORed into each ray index before hashing
+
+    @property
+    def n_total(self) -> int:
+        return self.width * self.height * self.supersample**2
+
+
+def ray_spec(camera: Camera, volume: Volume, settings: RenderSettings) -> RaySpec:
+    """The kernel-side description of ``camera``'s rays for ``volume`` (see :class:`RaySpec`)."""
+    right, up, forward = camera.basis()
+    aspect = settings.width / settings.height
+    if camera.projection == "perspective":
+        half_h = float(np.tan(np.radians(camera.fov_deg) / 2.0))
+    else:
+        half_h = camera.ortho_height_m / 2.0
+    key = int(lowbias32(np.array([(settings.seed + 0x9E3779B9) & 0xFFFFFFFF]))[0])
+    return RaySpec(
+        camera.eye,
+        tuple(right),
+        tuple(up),
+        tuple(forward),
+        camera.projection == "perspective",
+        half_h * aspect,
+        half_h,
+        settings.width,
+        settings.height,
+        settings.supersample,
+        volume.origin_m,
+        volume.voxel_size_m,
+        volume.shape,
+        settings.jitter,
+        key,
+    )

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from incandescent.render.rays import RayBatch
+from incandescent.render.rays import RayBatch, RaySpec
 from incandescent.render.settings import RenderSettings
 from incandescent.spectra.lines import LineTable
 from incandescent.spectra.lut import EmissionLUT
@@ -32,7 +32,7 @@ THIN_STEP = 1e-3
 class MarchInputs:
     """Everything a backend needs; built once per render on the host."""
 
-    rays: RayBatch
+    rays: RayBatch | None  # host-generated rays that hit the box (reference backend); else None
     volume: Volume
     lut: EmissionLUT
     macrocells: MacrocellGrid | None
@@ -43,6 +43,7 @@ class MarchInputs:
     line_table: LineTable | None = None  # the lines behind species_luts (the reference uses them)
     #: spectral mode: the bins and, per bin, (κ scale (λ_ref/λ_b)^α, its T ↦ XYZ table)
     spectral: tuple[tuple[float, EmissionLUT], ...] = ()
+    ray_spec: RaySpec | None = None  # what the Dr.Jit kernels generate their rays from
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,8 @@ class MarchResult:
     seconds: float
     device: str
     depth_m: NDArray  # distance from the ray origin to the first emitting sample; inf if none
+    #: which camera rays the rows are (None: every camera ray, in order)
+    ray_index: NDArray | None = None
 
 
 def trilinear_setup(p: NDArray, n: int) -> tuple[NDArray, NDArray, NDArray]:

@@ -293,23 +293,62 @@ def _device_grids(m, volume):
     return per_volume[m.__name__]
 
 
-def _ray_arrays(m, rays):
-    f32 = np.float32
-    o = m.Array3f(*(m.Float(rays.origin[:, a].astype(f32)) for a in range(3)))
-    d = m.Array3f(*(m.Float(rays.direction[:, a].astype(f32)) for a in range(3)))
-    return (
-        o,
-        d,
-        m.Float(rays.t_enter.astype(f32)),
-        m.Float(rays.t_exit.astype(f32)),
-        m.Float(rays.jitter.astype(f32)),
+def _lowbias32(x):
+    """The integer hash of ``rays.lowbias32`` on UInt32 lanes (multiplication wraps mod 2³²)."""
+    x = x ^ (x >> 16)
+    x = x * 0x7FEB352D
+    x = x ^ (x >> 15)
+    x = x * 0x846CA68B
+    return x ^ (x >> 16)
+
+
+def _ray_arrays(m, spec):
+    """Camera rays generated in the kernel, one lane per ray in ``Camera.generate_rays`` order,
+    in voxel space, clipped to the grid box [0, shape] (t_exit ≤ t_enter: the ray misses)."""
+    dr = drjit_module()
+    s = spec.supersample
+    index = dr.arange(m.UInt, spec.n_total)
+    col = index // (spec.height * s * s)
+    rest = index - col * (spec.height * s * s)
+    row, sub = rest // (s * s), rest % (s * s)
+    px = 2.0 * (m.Float(col) + (m.Float(sub // s) + 0.5) / s) / spec.width - 1.0
+    py = 1.0 - 2.0 * (m.Float(row) + (m.Float(sub % s) + 0.5) / s) / spec.height
+    right, up, forward, eye = (
+        m.Array3f(*(float(c) for c in v)) for v in (spec.right, spec.up, spec.forward, spec.eye)
     )
+    film = right * (px * spec.half_width) + up * (py * spec.half_height)
+    if spec.perspective:
+        o, d = eye, dr.normalize(forward + film)
+    else:
+        o, d = eye + film, forward + 0.0 * px
+    o = (o - m.Array3f(*(float(c) for c in spec.origin_m))) / float(spec.voxel_size_m)
+    t0, t1 = _clip(dr, m, o, d, spec.shape)
+    if spec.jitter:
+        h = _lowbias32(index ^ spec.key)
+        j = m.Float(h >> 8) * 2.0**-24
+    else:
+        j = m.Float(0.5)
+    return o, d, t0, t1, j
+
+
+def _clip(dr, m, o, d, shape):
+    """Slab-method entry and exit distances of rays (o, d) with the box [0, shape]."""
+    t0, t1 = m.Float(0.0), m.Float(np.inf)
+    for a, n in enumerate(shape):
+        inv = dr.rcp(d[a])
+        lo, hi = (0.0 - o[a]) * inv, (float(n) - o[a]) * inv
+        parallel = d[a] == 0.0
+        inside = (o[a] >= 0.0) & (o[a] <= float(n))
+        near = dr.select(parallel, dr.select(inside, -np.inf, np.inf), dr.minimum(lo, hi))
+        far = dr.select(parallel, dr.select(inside, np.inf, -np.inf), dr.maximum(lo, hi))
+        t0, t1 = dr.maximum(t0, near), dr.minimum(t1, far)
+    return t0, t1
 
 
 def trace(inputs: MarchInputs, m):
     """Trace the megakernel for all rays; returns lazy (XYZ, transmittance, samples, depth)."""
     dr, K = drjit_module(), _Kernel(m, inputs)
-    o, d, t0, t1, j = _ray_arrays(m, inputs.rays)
+    o, d, t0, t1, j = _ray_arrays(m, inputs.ray_spec)
     dt, skipping = K.dt, K.cells is not None
 
     def segment(k):
@@ -352,10 +391,6 @@ def march(inputs: MarchInputs, kind: str) -> MarchResult:
     """Run the megakernel on backend ``kind`` ("cpu" or "cuda")."""
     m = array_module(kind)
     dr = drjit_module()
-    if inputs.rays.size == 0:
-        return MarchResult(
-            np.zeros((0, 3)), np.ones(0), 0, 0.0, device_name(kind), np.full(0, np.inf)
-        )
     with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
         dr.kernel_history()  # clear
         start = time.perf_counter()
@@ -364,15 +399,21 @@ def march(inputs: MarchInputs, kind: str) -> MarchResult:
         dr.sync_thread()
         wall = time.perf_counter() - start
         compile_s = sum(_compile_seconds(h) for h in dr.kernel_history())
-    xyz = np.stack([np.asarray(L[a], dtype=np.float64) for a in range(3)], axis=1)
+    assert inputs.ray_spec is not None, "the Dr.Jit kernels generate their rays from a RaySpec"
+    lanes = inputs.ray_spec.n_total
+
+    def per_lane(values) -> np.ndarray:  # a loop variable no lane changed comes back as 1 value
+        return np.broadcast_to(np.asarray(values, dtype=np.float64), (lanes,))
+
+    xyz = np.stack([per_lane(L[a]) for a in range(3)], axis=1)
     samples = int(np.asarray(n, dtype=np.uint64).sum())
     return MarchResult(
         xyz,
-        np.asarray(tr, dtype=np.float64),
+        per_lane(tr),
         samples,
         max(wall - compile_s, 0.0),
         device_name(kind),
-        np.asarray(depth, dtype=np.float64),
+        per_lane(depth),
     )
 
 

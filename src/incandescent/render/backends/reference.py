@@ -58,6 +58,7 @@ def march(inputs: MarchInputs) -> MarchResult:
     """March every ray of ``inputs.rays`` front to back; float64 throughout."""
     start = time.perf_counter()
     rays, vol, s = inputs.rays, inputs.volume, inputs.settings
+    assert rays is not None, "the reference backend marches host-generated rays"
     n = rays.size
     xyz = np.zeros((n, 3))
     transmittance = np.ones(n)
@@ -81,7 +82,7 @@ def march(inputs: MarchInputs) -> MarchResult:
         more = (b < rays.t_exit[r]) & (transmittance[r] >= s.min_transmittance)
         active = r[more]
     seconds = time.perf_counter() - start
-    return MarchResult(xyz, transmittance, samples, seconds, "numpy float64", depth)
+    return MarchResult(xyz, transmittance, samples, seconds, "numpy float64", depth, rays.ray_index)
 
 
 def _integrate_step(inputs, r, p, ds_m, xyz, transmittance) -> np.ndarray:
@@ -146,6 +147,7 @@ def _march_spectral(inputs: MarchInputs, start: float) -> MarchResult:
     from incandescent.spectra.planck import NM_TO_M, _planck_m
 
     rays, vol, s = inputs.rays, inputs.volume, inputs.settings
+    assert rays is not None, "the reference backend marches host-generated rays"
     cmf = cmfs(s.observer)
     kappa_scale = (REFERENCE_NM / cmf.wavelength_nm) ** s.soot_alpha
     weights = K_M * cmf.step_nm * cmf.xyz_bar  # (471, 3)
@@ -177,4 +179,6 @@ def _march_spectral(inputs: MarchInputs, start: float) -> MarchResult:
         k[r] += 1
         active = r[(b < rays.t_exit[r]) & (tr[r].max(axis=1) >= s.min_transmittance)]
     seconds = time.perf_counter() - start
-    return MarchResult(xyz, tr.mean(axis=1), samples, seconds, "numpy float64", depth)
+    return MarchResult(
+        xyz, tr.mean(axis=1), samples, seconds, "numpy float64", depth, rays.ray_index
+    )
