@@ -158,3 +158,19 @@ def test_z_up_sources_are_rotated_into_the_y_up_world():
         expected = np.array([centre[0], centre[2], -centre[1]])
         index = np.round((expected - np.asarray(new_origin)) / voxel - 0.5).astype(int)
         assert new[tuple(index)] == grid[i, j, k]
+
+
+@pytest.mark.parametrize(("width", "height", "s"), [(5, 3, 1), (37, 20, 2), (16, 16, 1)])
+def test_kernel_lane_order_is_a_permutation_of_the_camera_rays(width, height, s):
+    from incandescent.render.rays import lane_order
+
+    x, y, index = lane_order(width, height, s)
+    assert np.array_equal(np.sort(index), np.arange(width * height * s * s))
+    cam = default_camera((np.zeros(3) - 1, np.ones(3)))
+    _, dirs = cam.generate_rays(width, height, s)
+    right, up, _ = cam.basis()
+    # the lane's sub-pixel (X, Y) is the one generate_rays puts at that index
+    film_x = np.dot(dirs[index], right) / np.dot(dirs[index], cam.basis()[2])
+    assert np.all(np.diff(film_x[np.argsort(x, kind="stable")]) >= -1e-12)
+    film_y = np.dot(dirs[index], up) / np.dot(dirs[index], cam.basis()[2])
+    assert np.all(np.diff(film_y[np.argsort(y, kind="stable")]) <= 1e-12)

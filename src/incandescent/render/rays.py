@@ -135,3 +135,43 @@ def ray_spec(camera: Camera, volume: Volume, settings: RenderSettings) -> RaySpe
         settings.jitter,
         key,
     )
+
+
+#: Side of the square pixel tiles whose rays the kernels march together, in sub-pixels.
+TILE = 16
+
+
+def _morton_decode(index: NDArray) -> tuple[NDArray, NDArray]:
+    """(x, y) of a Z-order index: x from the even bits, y from the odd bits."""
+
+    def even_bits(v: NDArray) -> NDArray:
+        v = v & 0x55555555
+        v = (v | (v >> 1)) & 0x33333333
+        v = (v | (v >> 2)) & 0x0F0F0F0F
+        v = (v | (v >> 4)) & 0x00FF00FF
+        return (v | (v >> 8)) & 0x0000FFFF
+
+    return even_bits(index), even_bits(index >> 1)
+
+
+def lane_order(width: int, height: int, supersample: int) -> tuple[NDArray, NDArray, NDArray]:
+    """The order in which the kernels march the camera rays: sub-pixel coordinates (X, Y) and the
+    ray's index in :meth:`Camera.generate_rays` order, for every ray.
+
+    Rays go in Z-order within 16×16 tiles (tiles down the image columns), so the 8 or 16 lanes of a
+    CPU packet trace a compact 4×2 / 4×4 block of the image and take similar paths through the
+    grid: measured 35–40 % faster than lanes down one image column on the 256³ plume.
+    """
+    s = supersample
+    w, h = width * s, height * s
+    tiles_x, tiles_y = -(-w // TILE), -(-h // TILE)
+    lane = np.arange(tiles_x * tiles_y * TILE * TILE, dtype=np.int64)
+    tile, within = lane // (TILE * TILE), lane % (TILE * TILE)
+    mx, my = _morton_decode(within)
+    x = (tile // tiles_y) * TILE + mx
+    y = (tile % tiles_y) * TILE + my
+    keep = (x < w) & (y < h)
+    x, y = x[keep], y[keep]
+    col, sx, row, sy = x // s, x % s, y // s, y % s
+    index = ((col * height + row) * s + sx) * s + sy
+    return x.astype(np.uint32), y.astype(np.uint32), index.astype(np.uint32)

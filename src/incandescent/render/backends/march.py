@@ -22,6 +22,7 @@ import numpy as np
 
 from incandescent.render.backends.common import THIN_STEP, MarchInputs, MarchResult
 from incandescent.render.backends.jit import array_module, device_name, drjit_module
+from incandescent.render.rays import lane_order
 
 
 class _Kernel:
@@ -318,17 +319,15 @@ def _lowbias32(x):
     return x ^ (x >> 16)
 
 
-def _ray_arrays(m, spec):
-    """Camera rays generated in the kernel, one lane per ray in ``Camera.generate_rays`` order,
-    in voxel space, clipped to the grid box [0, shape] (t_exit ≤ t_enter: the ray misses)."""
+def _ray_arrays(m, spec, order):
+    """Camera rays generated in the kernel, one lane per ray in ``order`` (sub-pixel X, Y and the
+    ray's index, from :func:`~incandescent.render.rays.lane_order`), in voxel space, clipped to the
+    grid box [0, shape] (t_exit ≤ t_enter: the ray misses)."""
     dr = drjit_module()
     s = spec.supersample
-    index = dr.arange(m.UInt, spec.n_total)
-    col = index // (spec.height * s * s)
-    rest = index - col * (spec.height * s * s)
-    row, sub = rest // (s * s), rest % (s * s)
-    px = 2.0 * (m.Float(col) + (m.Float(sub // s) + 0.5) / s) / spec.width - 1.0
-    py = 1.0 - 2.0 * (m.Float(row) + (m.Float(sub % s) + 0.5) / s) / spec.height
+    x, y, index = (m.UInt(a) for a in order)
+    px = 2.0 * (m.Float(x) + 0.5) / (spec.width * s) - 1.0
+    py = 1.0 - 2.0 * (m.Float(y) + 0.5) / (spec.height * s)
     right, up, forward, eye = (
         m.Array3f(*(float(c) for c in v)) for v in (spec.right, spec.up, spec.forward, spec.eye)
     )
@@ -361,10 +360,10 @@ def _clip(dr, m, o, d, shape):
     return t0, t1
 
 
-def trace(inputs: MarchInputs, m):
+def trace(inputs: MarchInputs, m, order):
     """Trace the megakernel for all rays; returns lazy (XYZ, transmittance, samples, depth)."""
     dr, K = drjit_module(), _Kernel(m, inputs)
-    o, d, t0, t1, j = _ray_arrays(m, inputs.ray_spec)
+    o, d, t0, t1, j = _ray_arrays(m, inputs.ray_spec, order)
     dt, skipping = K.dt, K.cells is not None
 
     def segment(k):
@@ -407,16 +406,18 @@ def march(inputs: MarchInputs, kind: str) -> MarchResult:
     """Run the megakernel on backend ``kind`` ("cpu" or "cuda")."""
     m = array_module(kind)
     dr = drjit_module()
+    spec = inputs.ray_spec
+    assert spec is not None, "the Dr.Jit kernels generate their rays from a RaySpec"
     with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
         dr.kernel_history()  # clear
         start = time.perf_counter()
-        L, tr, n, depth = trace(inputs, m)
+        order = lane_order(spec.width, spec.height, spec.supersample)
+        L, tr, n, depth = trace(inputs, m, order)
         dr.eval(L, tr, n, depth)
         dr.sync_thread()
         wall = time.perf_counter() - start
         compile_s = sum(_compile_seconds(h) for h in dr.kernel_history())
-    assert inputs.ray_spec is not None, "the Dr.Jit kernels generate their rays from a RaySpec"
-    lanes = inputs.ray_spec.n_total
+    lanes = spec.n_total
 
     def per_lane(values) -> np.ndarray:  # a loop variable no lane changed comes back as 1 value
         return np.broadcast_to(np.asarray(values, dtype=np.float64), (lanes,))
@@ -430,6 +431,7 @@ def march(inputs: MarchInputs, kind: str) -> MarchResult:
         max(wall - compile_s, 0.0),
         device_name(kind),
         per_lane(depth),
+        order[2],
     )
 
 
