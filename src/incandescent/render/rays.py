@@ -4,6 +4,7 @@ with their jitter. Rays that miss the box are dropped before any kernel runs.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -154,6 +155,7 @@ def _morton_decode(index: NDArray) -> tuple[NDArray, NDArray]:
     return even_bits(index), even_bits(index >> 1)
 
 
+@functools.lru_cache(maxsize=8)
 def lane_order(width: int, height: int, supersample: int) -> tuple[NDArray, NDArray, NDArray]:
     """The order in which the kernels march the camera rays: sub-pixel coordinates (X, Y) and the
     ray's index in :meth:`Camera.generate_rays` order, for every ray.
@@ -174,4 +176,7 @@ def lane_order(width: int, height: int, supersample: int) -> tuple[NDArray, NDAr
     x, y = x[keep], y[keep]
     col, sx, row, sy = x // s, x % s, y // s, y % s
     index = ((col * height + row) * s + sx) * s + sy
-    return x.astype(np.uint32), y.astype(np.uint32), index.astype(np.uint32)
+    out = tuple(a.astype(np.uint32) for a in (x, y, index))
+    for a in out:
+        a.setflags(write=False)  # cached and shared
+    return out  # type: ignore[return-value]
