@@ -76,9 +76,10 @@ class Camera:
     ) -> tuple[NDArray, NDArray]:
         """World-space ray origins and unit directions, float64 (n, 3).
 
-        Ray order is column-major — consecutive rays go *down an image column* (faster in the
-        kernels, DESIGN.md §6) — with the ``supersample``² sub-pixel rays of a pixel adjacent:
-        ray r belongs to pixel column ``r // (height·s²)``, row ``(r // s²) % height``.
+        Ray order (the canonical ray index every backend uses, e.g. for jitter) is column-major
+        with the ``supersample``² sub-pixel rays of a pixel adjacent: ray r belongs to pixel
+        column ``r // (height·s²)``, row ``(r // s²) % height``. The Dr.Jit kernels march the
+        same rays in a tiled order (``incandescent.render.rays.lane_order``).
         """
         px, py = _film_coordinates(width, height, supersample)
         right, up, forward = self.basis()
