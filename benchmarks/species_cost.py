@@ -23,7 +23,6 @@ import argparse
 import json
 import platform
 import statistics
-import subprocess
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -31,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from incandescent import __version__
+from incandescent.benchmark import git_commit
 from incandescent.render import RenderSettings, render
 from incandescent.scenes import plume_temperature
 from incandescent.species_scenes import hot_gas_weight
@@ -48,20 +48,6 @@ def volumes(n: int) -> dict[int, Volume]:
         k: Volume.from_arrays(temperature, species={s: fraction for s in SPECIES[:k]})
         for k in COUNTS
     }
-
-
-def _commit() -> str:
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "--short", "HEAD"],
-            capture_output=True,
-            text=True,
-            check=True,
-            cwd=Path(__file__).resolve().parent,
-        )
-        return out.stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
 
 
 def main(argv: Sequence[str] | None = None) -> dict:
@@ -115,7 +101,7 @@ def main(argv: Sequence[str] | None = None) -> dict:
         "slope_percent_per_species": 100.0 * slope / base,
         "timed_wall_s": wall,
         "incandescent": __version__,
-        "commit": _commit(),
+        "commit": git_commit(),
         "python": platform.python_version(),
         "machine": platform.machine(),
     }

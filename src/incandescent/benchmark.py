@@ -128,7 +128,8 @@ def _ratios(results: list[dict]) -> dict:
     }
 
 
-def _commit() -> str:
+def git_commit() -> str:
+    """The short commit hash of the checkout, or "unknown" (recorded with benchmark results)."""
     try:
         out = subprocess.run(
             ["git", "rev-parse", "--short", "HEAD"],
@@ -162,7 +163,7 @@ def run(
         "drjit": dr.__version__,
         "python": platform.python_version(),
         "machine": platform.processor() or platform.machine(),
-        "commit": _commit(),
+        "commit": git_commit(),
         "scenes": [
             _scene_report(s, size, resolution, repeat, reference, progress) for s in scene_names
         ],

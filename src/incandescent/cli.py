@@ -179,7 +179,7 @@ def _species(text: str | None) -> dict | None:
 def _overrides(f: dict) -> dict:
     """Nested scene keys for the flags that were given (None = not given)."""
     low_high = None
-    if f["temperature_range"] is not None:
+    if f.get("temperature_range") is not None:
         low, _, high = f["temperature_range"].partition(":")
         try:
             low_high = [float(low), float(high)]
@@ -190,64 +190,48 @@ def _overrides(f: dict) -> dict:
             ) from None
     return {
         "volume": {
-            "absorption": f["absorption"],
-            "voxel_size_m": f["voxel_size"],
-            "preset": f["preset"],
-            "up_axis": f["up_axis"],
-            "species": _species(f["species"]),
-            "axes": f["axes"],
-            "grids": {"temperature": f["temperature_grid"]},
+            "absorption": f.get("absorption"),
+            "voxel_size_m": f.get("voxel_size"),
+            "preset": f.get("preset"),
+            "up_axis": f.get("up_axis"),
+            "species": _species(f.get("species")),
+            "axes": f.get("axes"),
+            "grids": {"temperature": f.get("temperature_grid")},
             "temperature": {
-                "offset": f["offset"],
-                "scale": f["scale"],
-                "cutoff_K": f["cutoff"],
+                "offset": f.get("offset"),
+                "scale": f.get("scale"),
+                "cutoff_K": f.get("cutoff"),
                 "range": low_high,
             },
         },
         "camera": {
-            "eye": _vector(f["eye"], "eye"),
-            "target": _vector(f["target"], "target"),
-            "fov_deg": f["fov"],
+            "eye": _vector(f.get("eye"), "eye"),
+            "target": _vector(f.get("target"), "target"),
+            "fov_deg": f.get("fov"),
         },
         "render": {
-            "width": f["width"],
-            "height": f["height"],
-            "step_voxels": f["step"],
-            "supersample": f["supersample"],
-            "seed": f["seed"],
-            "space": f["space"],
-            "brightness": f["brightness"],
-            "paper_exponent": f["paper_exponent"],
-            "line_table": None if f["line_table"] is None else str(f["line_table"]),
+            "width": f.get("width"),
+            "height": f.get("height"),
+            "step_voxels": f.get("step"),
+            "supersample": f.get("supersample"),
+            "seed": f.get("seed"),
+            "space": f.get("space"),
+            "brightness": f.get("brightness"),
+            "paper_exponent": f.get("paper_exponent"),
+            "line_table": None if f.get("line_table") is None else str(f.get("line_table")),
         },
         "display": {
-            "exposure_ev": f["exposure"],
-            "auto_exposure": f["auto_exposure"],
-            "tonemap": f["tonemap"],
+            "exposure_ev": f.get("exposure"),
+            "auto_exposure": f.get("auto_exposure"),
+            "tonemap": f.get("tonemap"),
         },
         "output": {
-            "path": f["output"],
-            "stats": f["stats"],
-            "overwrite": f["overwrite"],
-            "backend": f["backend"],
+            "path": f.get("output"),
+            "stats": f.get("stats"),
+            "overwrite": f.get("overwrite"),
+            "backend": f.get("backend"),
         },
     }
-
-
-def _remap(offset: float, scale: float, cutoff: float, temperature_range: str | None):
-    from incandescent.volume import Remap
-
-    if temperature_range is None:
-        return Remap(offset=offset, scale=scale, cutoff_K=cutoff)
-    if (offset, scale) != (0.0, 1.0):
-        raise ValueError("--temperature-range replaces --offset/--scale; give one or the other")
-    low, sep, high = temperature_range.partition(":")
-    try:
-        return Remap.from_range(float(low), float(high), cutoff)
-    except ValueError:
-        raise ValueError(
-            f"--temperature-range must be LOW:HIGH in K (e.g. 800:2200); got {temperature_range!r}"
-        ) from None
 
 
 def _check_outputs(paths: list[Path | None], overwrite: bool) -> None:
@@ -422,9 +406,9 @@ def animate(
     absorption: float = typer.Option(None, help="Constant absorption κ in 1/m."),
     voxel_size: float = typer.Option(None, help="Voxel side in m."),
     temperature_grid: str = typer.Option("temperature", help="Temperature grid name (.npz)."),
-    offset: float = typer.Option(0.0, help="Temperature remap: T = (raw − offset)·scale."),
-    scale: float = typer.Option(1.0, help="Temperature remap scale (K per raw unit)."),
-    cutoff: float = typer.Option(0.0, help="Voxels below this many K are vacuum."),
+    offset: float = typer.Option(None, help="Temperature remap: T = (raw − offset)·scale [0]."),
+    scale: float = typer.Option(None, help="Temperature remap scale, K per raw unit [1]."),
+    cutoff: float = typer.Option(None, help="Voxels below this many K are vacuum [0]."),
     temperature_range: str = typer.Option(None, help="LOW:HIGH — normalised field to kelvin."),
     eye: str = typer.Option(None, help="Camera position X,Y,Z in m (default: three-quarter view)."),
     target: str = typer.Option(None, help="Point looked at, X,Y,Z in m."),
@@ -445,16 +429,20 @@ def animate(
     The camera frames the first file's box; the exposure is auto exposure of the middle frame.
     Re-running resumes: frames already in OUTPUT_frames/ are not rendered again.
     """
+    flags = dict(locals())
     from incandescent import api
     from incandescent.animation import expand_sequence, fixed_display, key_frame, render_video
     from incandescent.camera import paths as paths_module
 
     try:
         paths = expand_sequence(pattern)
-        remap = _remap(offset, scale, cutoff, temperature_range)
+        overrides = _overrides(flags)  # the same schema as `render` ...
+        overrides.pop("output")  # ... except the output, a video or a folder here
+        scene = _scene(paths[0], overrides)
 
         def volume_at(index: int):
-            return api.load_volume(paths[index], temperature_grid, absorption, voxel_size, remap)
+            spec = scene.volume.model_copy(update={"path": paths[index]})
+            return api.volume_from_section(spec, scene.remap())
 
         first = volume_at(0)
         camera = api.camera_from(

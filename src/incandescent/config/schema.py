@@ -119,8 +119,7 @@ class TemperatureMap(_Section):
 
     def remap(self) -> Remap:
         if self.range is not None:
-            low, high = self.range
-            return Remap(offset=-low / (high - low), scale=high - low, cutoff_K=self.cutoff_K)
+            return Remap.from_range(*self.range, cutoff_K=self.cutoff_K)
         offset = 0.0 if self.offset is None else self.offset
         scale = 1.0 if self.scale is None else self.scale
         return Remap(offset=offset, scale=scale, cutoff_K=self.cutoff_K)
