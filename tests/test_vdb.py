@@ -410,3 +410,14 @@ def _pixels_over(mask_xz: np.ndarray, camera, volume, width: int, height: int) -
     out = np.zeros((height, width), dtype=bool)
     out[inside] = mask_xz[i[inside], k[inside]]
     return out
+
+
+def test_a_crash_in_the_isolated_nanovdb_reader_is_a_clear_error(tmp_path):
+    """tinyvdb can segfault on corrupt NanoVDB data (found by fuzzing): the read runs in a worker
+    process, and a worker that dies becomes a ValueError naming the file; the next read works."""
+    import os
+
+    path = tmp_path / "crash.nvdb"
+    with pytest.raises(ValueError, match="crash.nvdb: the NanoVDB reader .tinyvdb. crashed"):
+        vdb._run_isolated(path, os.abort)
+    assert vdb._run_isolated(path, abs, -3) == 3  # a fresh worker after the crash

@@ -55,8 +55,11 @@ import os
 import struct
 import tempfile
 from collections.abc import Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass
+from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
@@ -194,7 +197,7 @@ def read_grids(
     path = _checked_path(path)
     names = _unique_names(path, names)
     if path.suffix.lower() == ".nvdb":
-        return _nano_read(path, names, max_voxels)
+        return _nano_read_isolated(path, names, max_voxels)
     with _open_vdb(path) as handle:
         grids = {g.name: g for g in _vdb_grids(path, handle)}
         chosen = {name: _pick(path, grids, name) for name in names}
@@ -700,6 +703,33 @@ def _nano_problem(
             f"index box times voxel size {voxel}); the renderer needs axis-aligned cubic voxels"
         )
     return None
+
+
+#: One worker process for NanoVDB reads, started on first use and reused (see below).
+_NANO_WORKER: ProcessPoolExecutor | None = None
+
+
+def _nano_read_isolated(path: Path, names: list[str], max_voxels: int) -> dict[str, DenseGrid]:
+    """:func:`_nano_read` in a separate process. tinyvdb 0.9's NanoVDB voxel access can crash the
+    process (segmentation fault) on corrupt files — fuzzing found it — so the read runs where a
+    crash becomes a clear ValueError instead of killing the caller. The worker is reused; a crash
+    discards it and the next read starts a new one."""
+    return _run_isolated(path, _nano_read, path, names, max_voxels)
+
+
+def _run_isolated(path: Path, function, *args):
+    """``function(*args)`` in the reusable worker process; a crash there is a ValueError."""
+    global _NANO_WORKER
+    if _NANO_WORKER is None:
+        _NANO_WORKER = ProcessPoolExecutor(max_workers=1, mp_context=get_context("spawn"))
+    try:
+        return _NANO_WORKER.submit(function, *args).result()
+    except BrokenProcessPool:
+        _NANO_WORKER = None
+        raise ValueError(
+            f"{path}: the NanoVDB reader (tinyvdb) crashed on this file: it is corrupt or uses a "
+            "layout tinyvdb cannot read"
+        ) from None
 
 
 def _nano_read(path: Path, names: list[str], max_voxels: int) -> dict[str, DenseGrid]:

@@ -56,6 +56,7 @@ _CORRUPT = (
     UnicodeDecodeError,
     SyntaxError,
     NotImplementedError,
+    RuntimeError,  # zipfile: "File ... is encrypted, password required" (a flipped flag bit)
 )
 
 
