@@ -10,7 +10,9 @@ from incandescent.camera import Camera
 from incandescent.render import RenderSettings, render
 from incandescent.render.backends import BackendUnavailable, available_backends, resolve_backend
 from incandescent.render.backends.jit import cuda_problem
-from incandescent.volume import Volume, build_macrocells
+from incandescent.render.backends.march import _two_valued_absorption
+from incandescent.volume import Remap, Volume, build_macrocells
+from incandescent.volume.macrocells import empty_radius
 
 
 def _random_volume(seed: int, shape=(7, 9, 6)) -> Volume:
@@ -39,6 +41,73 @@ def test_jit_backend_matches_reference(jit_backend, seed):
     np.testing.assert_allclose(fast.transmittance, ref.transmittance, rtol=1e-4, atol=1e-6)
     assert fast.metadata["samples"] <= ref.metadata["samples"]
     assert fast.metadata["backend"] == jit_backend
+
+
+@pytest.mark.parametrize("absorption", [None, 3.5])
+def test_two_valued_absorption_matches_reference(jit_backend, absorption):
+    """κ ∈ {0, κ₀} (the default absorption; a constant κ with a cutoff) is stored as T with a sign
+    bit in the kernel; the image must still match the float64 reference."""
+    rng = np.random.default_rng(4)
+    temp = rng.uniform(200.0, 2600.0, (9, 7, 8))
+    vol = Volume.from_arrays(temp, absorption=absorption, remap=Remap(cutoff_K=450.0))
+    assert _two_valued_absorption(vol) is not None
+    cam = Camera(eye=(1.1, 0.6, 1.4), target=(0.0, 0.05, 0.0), fov_deg=50.0)
+    s = RenderSettings(width=21, height=19, step_voxels=0.41, seed=3)
+    ref = render(vol, cam, s, backend="reference")
+    fast = render(vol, cam, s, backend=jit_backend)
+    assert ref.xyz.max() > 0
+    np.testing.assert_allclose(fast.xyz, ref.xyz, rtol=1e-4, atol=1e-6 * ref.xyz.max())
+    np.testing.assert_allclose(fast.transmittance, ref.transmittance, rtol=1e-4, atol=1e-6)
+
+
+def test_two_valued_absorption_is_detected():
+    temp = np.full((4, 4, 4), 1500.0)
+    temp[0] = 300.0
+    assert _two_valued_absorption(Volume.from_arrays(temp)) == np.float32(1.0)  # 1/L, L = 1 m
+    assert _two_valued_absorption(Volume.from_arrays(temp, absorption=2.0)) == np.float32(2.0)
+    graded = np.linspace(0.0, 1.0, 64).reshape(4, 4, 4)
+    assert _two_valued_absorption(Volume.from_arrays(temp, absorption=graded)) is None
+    assert _two_valued_absorption(Volume.from_arrays(temp, absorption=0.0)) is None
+
+
+def test_empty_radius_is_the_chebyshev_distance_to_the_nearest_occupied_cell():
+    rng = np.random.default_rng(0)
+    occupied = rng.random((9, 6, 11)) > 0.985
+    cells = np.indices(occupied.shape).reshape(3, -1).T
+    nearest = np.abs(cells[:, None, :] - np.argwhere(occupied)[None]).max(axis=2).min(axis=1)
+    assert nearest.max() >= 3
+    np.testing.assert_array_equal(empty_radius(occupied), nearest.reshape(occupied.shape))
+    assert np.all(empty_radius(np.zeros((3, 4, 5), dtype=bool)) == 5)
+
+
+@pytest.mark.parametrize(
+    "camera",
+    [
+        Camera(eye=(1.3, 0.4, 0.9), target=(0.0, 0.0, 0.0), fov_deg=55.0),
+        Camera(eye=(0.0, 0.0, 2.0), target=(0.0, 0.0, 0.0), fov_deg=40.0),  # axis-parallel rays
+        Camera(
+            eye=(0.5, 0.8, 1.5),
+            target=(0.0, 0.0, 0.0),
+            projection="orthographic",
+            ortho_height_m=1.2,
+        ),
+    ],
+)
+def test_multi_cell_jumps_leave_image_unchanged(jit_backend, camera):
+    """Small hot blobs far apart in a big box: rays jump whole blocks of empty macrocells."""
+    temp = np.full((40, 40, 40), 300.0)
+    for corner in [(3, 5, 4), (30, 28, 6), (18, 33, 31), (6, 20, 34)]:
+        x, y, z = corner
+        temp[x : x + 4, y : y + 3, z : z + 4] = 1800.0
+    vol = Volume.from_arrays(temp)
+    s = RenderSettings(width=31, height=27, macrocell_voxels=4)
+    assert vol.macrocells(4).empty_radius.max() >= 3
+    dense = render(vol, camera, s.replace(skip_empty=False), backend=jit_backend)
+    skipped = render(vol, camera, s, backend=jit_backend)
+    assert dense.xyz.max() > 0
+    np.testing.assert_allclose(skipped.xyz, dense.xyz, rtol=1e-5, atol=1e-7 * dense.xyz.max())
+    np.testing.assert_allclose(skipped.transmittance, dense.transmittance, rtol=1e-6, atol=1e-7)
+    assert skipped.metadata["samples"] < dense.metadata["samples"] / 3
 
 
 def test_skipping_leaves_image_unchanged_and_saves_samples(jit_backend):

@@ -4,6 +4,11 @@ Cell c covers voxel coordinates [c·S, (c+1)·S] on each axis. A trilinear sampl
 range reads voxels c·S−1 … (c+1)·S (DESIGN.md §4), so each cell stores the maximum κ over its voxels
 *plus a one-voxel border*. A cell whose maximum is 0 therefore guarantees κ = 0 at every sample in
 it, so skipping it leaves the image exactly unchanged.
+
+Each cell also stores its *empty radius* r: the Chebyshev distance, in cells, to the nearest cell
+that is not empty (0 for such a cell). Every cell within r − 1 cells of an empty cell is empty too,
+so a ray in it may jump to the exit of that (2r − 1)³ block of cells in one step (a distance field
+over macrocells, the "proximity clouds" of Cohen & Sheffer 1994) instead of one cell at a time.
 """
 
 from __future__ import annotations
@@ -16,10 +21,12 @@ from numpy.typing import NDArray
 
 @dataclass(frozen=True)
 class MacrocellGrid:
-    """Per-cell maximum absorption (1/m) including a one-voxel border; ``cell_voxels`` = S."""
+    """Per-cell maximum absorption (1/m) including a one-voxel border; ``cell_voxels`` = S;
+    ``empty_radius``: Chebyshev distance in cells to the nearest non-empty cell (float32)."""
 
     max_absorption: NDArray[np.float32]
     cell_voxels: int
+    empty_radius: NDArray[np.float32]
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -55,4 +62,30 @@ def build_macrocells(absorption_per_m: NDArray, cell_voxels: int = 8) -> Macroce
     out = np.asarray(absorption_per_m, dtype=np.float32)
     for axis in range(3):
         out = _extended_block_max(out, axis, int(cell_voxels))
-    return MacrocellGrid(np.ascontiguousarray(out), int(cell_voxels))
+    out = np.ascontiguousarray(out)
+    return MacrocellGrid(out, int(cell_voxels), empty_radius(out > 0))
+
+
+def _dilate(mask: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """``mask`` grown by one cell in every direction, diagonals included (Chebyshev radius 1)."""
+    out = mask.copy()
+    for axis in range(3):
+        grown = np.moveaxis(out.copy(), axis, 0)
+        view = np.moveaxis(out, axis, 0)
+        grown[1:] |= view[:-1]
+        grown[:-1] |= view[1:]
+        out = np.moveaxis(grown, 0, axis)
+    return out
+
+
+def empty_radius(occupied: NDArray[np.bool_]) -> NDArray[np.float32]:
+    """Chebyshev distance (in cells) from each cell to the nearest occupied cell; 0 on occupied
+    cells; the largest side of the grid where no cell is occupied. Grown one ring at a time."""
+    limit = max(occupied.shape)
+    radius = np.full(occupied.shape, float(limit), dtype=np.float32)
+    reached, r = occupied.copy(), 0
+    while r < limit and reached.any() and not reached.all():
+        radius[reached & (radius == limit)] = r
+        reached, r = _dilate(reached), r + 1
+    radius[reached & (radius == limit)] = r
+    return radius

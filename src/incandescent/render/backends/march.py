@@ -35,6 +35,7 @@ class _Kernel:
         nx, ny, nz = (n + 2 for n in vol.shape)
         self.strides = (ny * nz, nz, 1)
         self.medium, self.scale, self.sodium = _device_grids(m, vol)
+        self.kappa0 = _two_valued_absorption(vol)
         self.lut = m.Float(_table4(lut.values))
         self.paper = s.brightness == "paper"
         self.bins = [
@@ -52,7 +53,7 @@ class _Kernel:
         self.dt = np.float32(s.step_voxels)
         self.min_tr = np.float32(s.min_transmittance)
         cells = inputs.macrocells
-        self.cells = None if cells is None else m.Float(cells.max_absorption.ravel())
+        self.cells = None if cells is None else m.Float(cells.empty_radius.ravel())
         self.cell_shape = None if cells is None else cells.shape
         self.cell_voxels = None if cells is None else np.float32(cells.cell_voxels)
 
@@ -94,6 +95,10 @@ class _Kernel:
         sx, sy, sz = self.strides
 
         def fetch(index):
+            if kind is self.m.UInt:  # T with the sign bit set where κ = 0 (_signed_medium)
+                bits = dr.gather(self.m.UInt, grid, index)
+                temp = dr.reinterpret_array(self.m.Float, bits & 0x7FFFFFFF)
+                return self.m.Array2f(self.m.Float(1 - (bits >> 31)), temp)
             if kind is not self.m.UInt64:
                 return dr.gather(kind, grid, index)
             packed = dr.gather(self.m.UInt64, grid, index)  # one 64-bit gather for κ and T
@@ -108,6 +113,13 @@ class _Kernel:
         c0 = dr.lerp(lerp_x(0), lerp_x(sy), fy)
         c1 = dr.lerp(lerp_x(sz), lerp_x(sy + sz), fy)
         return dr.lerp(c0, c1, fz)
+
+    def medium_at(self, c):
+        """(κ in 1/m, T in K) at the trilinear corners c."""
+        if self.kappa0 is None:
+            return self.trilinear(self.medium, c, self.m.UInt64)
+        occupancy, temp = self.trilinear(self.medium, c, self.m.UInt)
+        return occupancy * self.kappa0, temp
 
     def lut_position(self, temp):
         """Entry i0 and weight of T in the 1/T-uniform tables (all tables share the spacing)."""
@@ -205,22 +217,22 @@ class _Kernel:
         """One segment: sample (κ, T) at its midpoint and integrate where the medium emits."""
         dr = self.dr
         c = self.corners(p)
-        kappa, temp = self.trilinear(self.medium, c, self.m.UInt64)
+        kappa, temp = self.medium_at(c)
         fractions = [self.trilinear(grid, c) for grid, _ in self.species]
         present = kappa > 0.0
         for fraction in fractions:
             present = present | (fraction > 0.0)
         if self.paper:
-            contributes = temp >= self.paper_min_K
-        else:
-            contributes = present & (temp >= self.lut_t_min)
+            interacts = emits = temp >= self.paper_min_K
+        else:  # a cold sample (T below the tables) still absorbs; it only emits nothing
+            interacts, emits = present, present & (temp >= self.lut_t_min)
         tr, L = dr.if_stmt(
             (tr, L, kappa, temp, c, ds_m, fractions),
-            contributes,
+            interacts,
             self._accumulator(),
             lambda tr, L, kappa, temp, c, ds_m, fractions: (tr, L),
         )
-        first = contributes & (depth == np.inf)
+        first = emits & (depth == np.inf)
         depth = dr.select(first, t_mid * self.ds_per_voxel, depth)
         return k + 1.0, tr, L, n + 1, depth
 
@@ -238,22 +250,27 @@ class _Kernel:
         )
         return cx, cy, cz
 
-    def is_empty(self, p):
+    def empty_radius(self, p):
+        """The empty radius r of p's macrocell (0: not empty; see ``volume.macrocells``)."""
         cx, cy, cz = self.cell_index(p)
         _, ny, nz = self.cell_shape
         flat = (cx * ny + cy) * nz + cz
-        return self.dr.gather(self.m.Float, self.cells, flat) == 0.0
+        return self.dr.gather(self.m.Float, self.cells, flat)
 
-    def skip(self, k, p, ray):
-        """k of the first segment reaching the exit of p's (empty) macrocell: one DDA step."""
+    def skip(self, k, p, radius, ray):
+        """k of the first segment reaching the exit of the block of empty macrocells within
+        radius − 1 cells of p's cell (one DDA step; that block is empty by the radius's
+        definition, so every segment before it has κ = 0)."""
         dr, m = self.dr, self.m
-        o, d, t0, j = ray
+        o, inv_d, t0, j = ray
         cell = self.cell_index(p)
+        reach = radius - 1.0
         t_exit = m.Float(np.inf)
         for a in range(3):
-            bound = (m.Float(cell[a]) + dr.select(d[a] > 0, 1.0, 0.0)) * self.cell_voxels
-            t_axis = (bound - o[a]) / d[a]
-            t_exit = dr.minimum(t_exit, dr.select(d[a] == 0.0, np.inf, t_axis))
+            forward = inv_d[a] > 0
+            bound = (m.Float(cell[a]) + dr.select(forward, 1.0 + reach, -reach)) * self.cell_voxels
+            t_axis = (bound - o[a]) * inv_d[a]
+            t_exit = dr.minimum(t_exit, dr.select(dr.isinf(inv_d[a]), np.inf, t_axis))
         k_exit = dr.floor((t_exit - t0) / self.dt - j) + 1.0
         return dr.maximum(k_exit, k + 1.0)
 
@@ -284,6 +301,24 @@ def _packed_medium(volume) -> np.ndarray:
     return np.ascontiguousarray(padded).view("<u8").reshape(-1)
 
 
+def _two_valued_absorption(volume) -> np.float32 | None:
+    """κ₀ when every voxel's κ is 0 or one value κ₀ (the default absorption, a constant κ with a
+    cutoff), else None; cached per volume."""
+    if "two_valued_kappa" not in volume._cache:
+        kappa = volume.absorption_per_m
+        peak = np.float32(kappa.max())
+        two = peak > 0 and not np.any((kappa != 0) & (kappa != peak))
+        volume._cache["two_valued_kappa"] = peak if two else None
+    return volume._cache["two_valued_kappa"]
+
+
+def _signed_medium(volume) -> np.ndarray:
+    """Padded T's float32 bits with the sign bit set where κ = 0 (two-valued κ): one 32-bit
+    gather per trilinear corner gives T and the occupancy, half the memory of the packed pair."""
+    signed = np.copysign(volume.temperature_K, np.where(volume.absorption_per_m > 0, 1.0, -1.0))
+    return _padded(signed.astype("<f4")).view("<u4")
+
+
 def _device_grid(m, volume, key: tuple, grid: np.ndarray):
     """One extra padded grid of ``volume`` on the device, uploaded once per volume and key."""
     per_volume = _DEVICE_GRIDS.setdefault(volume, {})
@@ -302,8 +337,9 @@ def _device_grids(m, volume):
     per_volume = _DEVICE_GRIDS.setdefault(volume, {})
     if m.__name__ not in per_volume:
         scale, sodium = volume.emission_scale, volume.sodium_fraction
+        two_valued = _two_valued_absorption(volume) is not None
         per_volume[m.__name__] = (
-            m.UInt64(_packed_medium(volume)),
+            m.UInt(_signed_medium(volume)) if two_valued else m.UInt64(_packed_medium(volume)),
             None if scale is None else m.Float(_padded(scale)),
             None if sodium is None else m.Float(_padded(sodium)),
         )
@@ -383,8 +419,13 @@ def trace(inputs: MarchInputs, m, order):
         a, _ = segment(k)
         return (a < t1) & alive(tr)
 
-    def skip(k, tr, L, n, depth, p, t_mid, ds_m):
-        return K.skip(k, p, (o, d, t0, j)), tr, L, n, depth
+    inv_d = dr.rcp(d)  # ±inf along an axis the ray is parallel to
+
+    def skip(k, tr, L, n, depth, p, t_mid, ds_m, radius):
+        return K.skip(k, p, radius, (o, inv_d, t0, j)), tr, L, n, depth
+
+    def sample(k, tr, L, n, depth, p, t_mid, ds_m, radius):
+        return K.sample(k, tr, L, n, depth, p, t_mid, ds_m)
 
     def body(k, tr, L, n, depth):
         a, b = segment(k)
@@ -392,7 +433,8 @@ def trace(inputs: MarchInputs, m, order):
         args = (k, tr, L, n, depth, dr.fma(d, t_mid, o), t_mid, (b - a) * K.ds_per_voxel)
         if not skipping:
             return K.sample(*args)
-        return dr.if_stmt(args, K.is_empty(args[5]), skip, K.sample)
+        radius = K.empty_radius(args[5])
+        return dr.if_stmt(args + (radius,), radius > 0.0, skip, sample)
 
     tr0 = [m.Float(1.0) for _ in K.bins] if K.bins else m.Float(1.0)
     state = (m.Float(0.0), tr0, m.Array3f(0.0), m.UInt(0), m.Float(np.inf))
