@@ -183,7 +183,7 @@ def test_bench_json_reports_every_case():
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout)
     scene_names = [s["scene"] for s in report["scenes"]]
-    assert scene_names == ["plume", "sparse"]
+    assert scene_names == ["plume", "sparse", "soot"]
     cases = {r["case"] for r in report["scenes"][0]["results"]}
     assert {"cpu, all threads", "cpu, 1 thread", "reference (NumPy float64)"} <= cases
     for r in report["scenes"][0]["results"]:

@@ -68,6 +68,8 @@ def test_two_valued_absorption_is_detected():
     graded = np.linspace(0.0, 1.0, 64).reshape(4, 4, 4)
     assert _two_valued_absorption(Volume.from_arrays(temp, absorption=graded)) is None
     assert _two_valued_absorption(Volume.from_arrays(temp, absorption=0.0)) is None
+    assert _two_valued_absorption(scenes.plume(16)) is not None  # the bench scenes: one of each
+    assert _two_valued_absorption(scenes.soot_plume(16)) is None
 
 
 def test_empty_radius_is_the_chebyshev_distance_to_the_nearest_occupied_cell():

@@ -25,6 +25,7 @@ from incandescent.render.backends.jit import drjit_module
 SCENES = {
     "plume": ("plume {n}³ at {r}²", lambda n: scenes.plume(n)),
     "sparse": ("small flame in an empty {n}³ box at {r}²", lambda n: scenes.sparse_flame(n)),
+    "soot": ("plume {n}³ with a graded κ grid at {r}²", lambda n: scenes.soot_plume(n)),
 }
 
 

@@ -480,7 +480,9 @@ def animate(
 @app.command()
 def bench(
     as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
-    scenes: str = typer.Option("plume,sparse", help="Comma-separated scenes: plume, sparse."),
+    scenes: str = typer.Option(
+        "plume,sparse,soot", help="Comma-separated scenes: plume, sparse, soot."
+    ),
     size: int = typer.Option(256, help="Grid resolution of the scenes."),
     resolution: int = typer.Option(512, help="Image width and height."),
     repeat: int = typer.Option(5, help="Timed repetitions per case (median reported)."),

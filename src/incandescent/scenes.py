@@ -44,6 +44,14 @@ def plume(n: int = 128, peak_K: float = 2000.0) -> Volume:
     return Volume.from_arrays(plume_temperature(n, peak_K), source=f"plume({n})")
 
 
+def soot_plume(n: int = 128, peak_K: float = 2000.0, kappa_per_m: float = 2.0) -> Volume:
+    """The plume with a graded absorption grid: κ rises linearly from 0 at 500 K to
+    ``kappa_per_m`` at the peak (so the kernel reads a general (κ, T) grid, not a two-valued κ)."""
+    temperature = plume_temperature(n, peak_K)
+    soot = np.clip((temperature - 500.0) / (peak_K - 500.0), 0.0, 1.0)
+    return Volume.from_arrays(temperature, absorption=soot * kappa_per_m, source=f"soot_plume({n})")
+
+
 def sparse_flame(n: int = 256, flame_fraction: float = 0.12, peak_K: float = 1900.0) -> Volume:
     """A small plume filling ``flame_fraction`` of the side of an otherwise empty n³ box."""
     m = max(4, int(round(n * flame_fraction)))
