@@ -60,5 +60,6 @@ def resolve_pixels(
     (H, W, ...) image."""
     s2 = supersample * supersample
     tail = values.shape[1:]
-    per_pixel = reduce(values.reshape((width, height, s2) + tail), axis=2)
+    per_pixel = values.reshape((width, height, s2) + tail)
+    per_pixel = per_pixel[:, :, 0] if s2 == 1 else reduce(per_pixel, axis=2)
     return np.ascontiguousarray(np.swapaxes(per_pixel, 0, 1))

@@ -117,7 +117,10 @@ class Volume:
 
     @property
     def max_temperature_K(self) -> float:
-        return float(self.temperature_K.max())
+        """Hottest voxel, K (computed once: the grids are read-only)."""
+        if "max_temperature_K" not in self._cache:
+            self._cache["max_temperature_K"] = float(self.temperature_K.max())
+        return self._cache["max_temperature_K"]
 
     def replace(self, **changes) -> Volume:
         """A copy with ``changes`` applied (e.g. placement)."""
