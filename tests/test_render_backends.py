@@ -10,12 +10,7 @@ from incandescent.camera import Camera
 from incandescent.render import RenderSettings, render
 from incandescent.render.backends import BackendUnavailable, available_backends, resolve_backend
 from incandescent.render.backends.jit import cuda_problem
-from incandescent.render.backends.march import (
-    _packed_medium,
-    _padded,
-    _signed_medium,
-    _two_valued_absorption,
-)
+from incandescent.render.backends.march import _packed_medium, _padded, _signed_medium
 from incandescent.volume import Remap, Volume, build_macrocells
 from incandescent.volume.macrocells import empty_radius
 
@@ -55,7 +50,7 @@ def test_two_valued_absorption_matches_reference(jit_backend, absorption):
     rng = np.random.default_rng(4)
     temp = rng.uniform(200.0, 2600.0, (9, 7, 8))
     vol = Volume.from_arrays(temp, absorption=absorption, remap=Remap(cutoff_K=450.0))
-    assert _two_valued_absorption(vol) is not None
+    assert vol.two_valued_absorption_per_m is not None
     cam = Camera(eye=(1.1, 0.6, 1.4), target=(0.0, 0.05, 0.0), fov_deg=50.0)
     s = RenderSettings(width=21, height=19, step_voxels=0.41, seed=3)
     ref = render(vol, cam, s, backend="reference")
@@ -68,13 +63,13 @@ def test_two_valued_absorption_matches_reference(jit_backend, absorption):
 def test_two_valued_absorption_is_detected():
     temp = np.full((4, 4, 4), 1500.0)
     temp[0] = 300.0
-    assert _two_valued_absorption(Volume.from_arrays(temp)) == np.float32(1.0)  # 1/L, L = 1 m
-    assert _two_valued_absorption(Volume.from_arrays(temp, absorption=2.0)) == np.float32(2.0)
+    assert Volume.from_arrays(temp).two_valued_absorption_per_m == 1.0  # 1/L, L = 1 m
+    assert Volume.from_arrays(temp, absorption=2.0).two_valued_absorption_per_m == 2.0
     graded = np.linspace(0.0, 1.0, 64).reshape(4, 4, 4)
-    assert _two_valued_absorption(Volume.from_arrays(temp, absorption=graded)) is None
-    assert _two_valued_absorption(Volume.from_arrays(temp, absorption=0.0)) is None
-    assert _two_valued_absorption(scenes.plume(16)) is not None  # the bench scenes: one of each
-    assert _two_valued_absorption(scenes.soot_plume(16)) is None
+    assert Volume.from_arrays(temp, absorption=graded).two_valued_absorption_per_m is None
+    assert Volume.from_arrays(temp, absorption=0.0).two_valued_absorption_per_m is None
+    assert scenes.plume(16).two_valued_absorption_per_m is not None  # the bench scenes: one of each
+    assert scenes.soot_plume(16).two_valued_absorption_per_m is None
 
 
 def test_device_grid_layouts_are_edge_padded_copies():

@@ -122,6 +122,17 @@ class Volume:
             self._cache["max_temperature_K"] = float(self.temperature_K.max())
         return self._cache["max_temperature_K"]
 
+    @property
+    def two_valued_absorption_per_m(self) -> float | None:
+        """κ₀ when every voxel's κ is 0 or one value κ₀ > 0 (the default absorption; a constant κ
+        with a cutoff), else None. The kernel then stores only T, its sign bit marking κ = 0."""
+        if "two_valued_kappa" not in self._cache:
+            kappa = self.absorption_per_m
+            peak = np.float32(kappa.max())
+            two = peak > 0 and not np.any((kappa != 0) & (kappa != peak))
+            self._cache["two_valued_kappa"] = float(peak) if two else None
+        return self._cache["two_valued_kappa"]
+
     def replace(self, **changes) -> Volume:
         """A copy with ``changes`` applied (e.g. placement)."""
         return replace(self, _cache={}, **changes)

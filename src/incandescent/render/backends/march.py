@@ -35,7 +35,8 @@ class _Kernel:
         nx, ny, nz = (n + 2 for n in vol.shape)
         self.strides = (ny * nz, nz, 1)
         self.medium, self.scale, self.sodium = _device_grids(m, vol)
-        self.kappa0 = _two_valued_absorption(vol)
+        kappa0 = vol.two_valued_absorption_per_m
+        self.kappa0 = None if kappa0 is None else np.float32(kappa0)
         self.lut = m.Float(_table4(lut.values))
         self.paper = s.brightness == "paper"
         self.bins = [
@@ -318,17 +319,6 @@ def _packed_medium(volume) -> np.ndarray:
     return _edge_pad(out).view("<u8").reshape(-1)
 
 
-def _two_valued_absorption(volume) -> np.float32 | None:
-    """κ₀ when every voxel's κ is 0 or one value κ₀ (the default absorption, a constant κ with a
-    cutoff), else None; cached per volume."""
-    if "two_valued_kappa" not in volume._cache:
-        kappa = volume.absorption_per_m
-        peak = np.float32(kappa.max())
-        two = peak > 0 and not np.any((kappa != 0) & (kappa != peak))
-        volume._cache["two_valued_kappa"] = peak if two else None
-    return volume._cache["two_valued_kappa"]
-
-
 def _signed_medium(volume) -> np.ndarray:
     """Padded T's float32 bits with the sign bit set where κ = 0 (two-valued κ): one 32-bit
     gather per trilinear corner gives T and the occupancy, half the memory of the packed pair."""
@@ -358,7 +348,7 @@ def _device_grids(m, volume):
     per_volume = _DEVICE_GRIDS.setdefault(volume, {})
     if m.__name__ not in per_volume:
         scale, sodium = volume.emission_scale, volume.sodium_fraction
-        two_valued = _two_valued_absorption(volume) is not None
+        two_valued = volume.two_valued_absorption_per_m is not None
         per_volume[m.__name__] = (
             m.UInt(_signed_medium(volume)) if two_valued else m.UInt64(_packed_medium(volume)),
             None if scale is None else m.Float(_padded(scale)),
