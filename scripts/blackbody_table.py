@@ -24,6 +24,7 @@ from incandescent import __version__
 from incandescent.colorimetry import xyz_to_rgb, xyz_to_xy
 from incandescent.constants import CODATA_2018, K_M
 from incandescent.imaging import DisplaySettings, to_display
+from incandescent.io.docpage import draw_kelvin_ticks
 from incandescent.io.images import write_png
 from incandescent.io.output import write_text
 from incandescent.spectra import blackbody_xyz
@@ -190,11 +191,6 @@ def strip_image(width: int = STRIP_WIDTH) -> NDArray[np.uint8]:
     return _draw_ticks(image, width)
 
 
-def _tick_x(temperature_K: float, width: int) -> int:
-    frac = np.log(temperature_K / T_LOW_K) / np.log(T_HIGH_K / T_LOW_K)
-    return int(round(frac * (width - 1)))
-
-
 def _draw_ticks(image: NDArray[np.uint8], width: int) -> NDArray[np.uint8]:
     """Tick marks and kelvin labels in the bottom row, with Pillow's default font."""
     from PIL import Image, ImageDraw, ImageFont
@@ -202,14 +198,7 @@ def _draw_ticks(image: NDArray[np.uint8], width: int) -> NDArray[np.uint8]:
     canvas = Image.fromarray(np.ascontiguousarray(image))
     draw = ImageDraw.Draw(canvas)
     font = ImageFont.load_default()
-    top = 2 * BAND_HEIGHT
-    for t in TICKS_K:
-        x = _tick_x(t, width)
-        draw.line([(x, top), (x, top + 3)], fill=(230, 230, 230))
-        text = f"{t:g}"
-        text_w = draw.textlength(text, font=font)
-        left = min(max(x - text_w / 2, 1), width - text_w - 1)
-        draw.text((left, top + 3), text, fill=(230, 230, 230), font=font)
+    draw_kelvin_ticks(draw, font, TICKS_K, 2 * BAND_HEIGHT, width, T_LOW_K, T_HIGH_K)
     return np.asarray(canvas, dtype=np.uint8)
 
 

@@ -26,9 +26,9 @@ from numpy.typing import NDArray
 
 from incandescent import __version__, blackbody_xyz
 from incandescent.colorimetry import xyz_to_uv_prime
-from incandescent.imaging import DisplaySettings, auto_exposure_scale, to_display
-from incandescent.io.images import write_png
-from incandescent.io.output import display_pixels, write_text
+from incandescent.imaging import DisplaySettings, auto_exposure_scale, lit_percentile, to_display
+from incandescent.io.docpage import PageImages, draw_kelvin_ticks
+from incandescent.io.output import display_pixels
 from incandescent.paper.colour import paper_rgb, paper_spectrum_xyz, truncation_shift_uv
 from incandescent.paper.demos import plate_camera
 from incandescent.paper.scenes import PlateScene, paper_sphere
@@ -157,11 +157,6 @@ def strip_image(width: int) -> NDArray[np.uint8]:
     return _annotate(np.concatenate([physical, paper, labels], axis=0), width)
 
 
-def _tick_x(temperature_K: float, width: int) -> int:
-    frac = math.log(temperature_K / T_LOW_K) / math.log(T_HIGH_K / T_LOW_K)
-    return int(round(frac * (width - 1)))
-
-
 def _annotate(image: NDArray[np.uint8], width: int) -> NDArray[np.uint8]:
     """Band names and kelvin ticks, with Pillow's default font."""
     from PIL import Image, ImageDraw, ImageFont
@@ -174,14 +169,7 @@ def _annotate(image: NDArray[np.uint8], width: int) -> NDArray[np.uint8]:
         box = draw.textbbox((3, top), name, font=font)
         draw.rectangle((box[0] - 2, box[1] - 1, box[2] + 2, box[3] + 1), fill=(24, 24, 24))
         draw.text((3, top), name, fill=(230, 230, 230), font=font)
-    top = 2 * BAND_HEIGHT
-    for t in TICKS_K:
-        x = _tick_x(t, width)
-        draw.line([(x, top), (x, top + 3)], fill=(230, 230, 230))
-        text = f"{t:g}"
-        text_w = draw.textlength(text, font=font)
-        left = min(max(x - text_w / 2, 1), width - text_w - 1)
-        draw.text((left, top + 3), text, fill=(230, 230, 230), font=font)
+    draw_kelvin_ticks(draw, font, TICKS_K, 2 * BAND_HEIGHT, width, T_LOW_K, T_HIGH_K)
     return np.asarray(canvas, dtype=np.uint8)
 
 
@@ -354,22 +342,6 @@ cut ends together). Differences of a few thousandths in u′v′ are visible sid
 """
 
 
-# --- writing -----------------------------------------------------------------------------------
-def _write_text(path: Path, text: str) -> Path:
-    return write_text(path, text, overwrite=True)
-
-
-def _png(path: Path, pixels: NDArray[np.uint8], title: str) -> Path:
-    meta = {"Title": title, "Software": f"incandescent {__version__} scripts/gallery.py"}
-    return write_png(path, pixels, overwrite=True, metadata=meta)
-
-
-def _p99(image: HDRImage) -> float:
-    lum = image.luminance
-    lit = lum[lum > 0]
-    return float(np.percentile(lit, 99)) if lit.size else 0.0
-
-
 def main(argv: Sequence[str] | None = None) -> list[Path]:
     """Write gallery.md and gallery/*.png into ``--out``; return the paths written."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -379,16 +351,8 @@ def main(argv: Sequence[str] | None = None) -> list[Path]:
     args = parser.parse_args(argv)
     sizes = QUICK if args.quick else FULL
     start = time.perf_counter()
-    image_dir = args.out / IMAGE_DIR
-    image_dir.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    rel: dict[str, str] = {}
-
-    def emit(key: str, pixels: NDArray[np.uint8], title: str) -> None:
-        name = f"{key}.png"
-        written.append(_png(image_dir / name, pixels, title))
-        rel[key] = f"{IMAGE_DIR}/{name}"
-
+    page = PageImages(args.out, IMAGE_DIR, "scripts/gallery.py")
+    emit = page.add
     sphere = render_sphere_pair(sizes, args.backend)
     sphere_px = {mode: display_pixels(image) for mode, image in sphere.items()}
     for mode, pixels in sphere_px.items():
@@ -425,14 +389,15 @@ def main(argv: Sequence[str] | None = None) -> list[Path]:
         "sphere_ratio": sizes.sphere_n / 32.0,
         "t104": hottest[104],
         "t180": hottest[180],
-        "phys_drop": math.log2(_p99(plate[104]["physical"]) / _p99(plate[180]["physical"])),
+        "phys_drop": math.log2(
+            lit_percentile(plate[104]["physical"].luminance)
+            / lit_percentile(plate[180]["physical"].luminance)
+        ),
         "paper_104": paper_means[104],
         "paper_180": paper_means[180],
         "strip_width": sizes.strip_width,
     }
-    written.append(_write_text(args.out / "gallery.md", markdown(rel, facts)))
-    for path in written:
-        print(f"wrote {path}")
+    written = page.page("gallery.md", markdown(page.links, facts))
     print(f"gallery: {time.perf_counter() - start:.1f} s")
     return written
 

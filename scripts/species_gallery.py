@@ -25,9 +25,9 @@ from numpy.typing import NDArray
 
 from incandescent import __version__
 from incandescent.colorimetry import xyz_to_xy
-from incandescent.imaging import DisplaySettings, to_display
-from incandescent.io.images import write_png
-from incandescent.io.output import display_pixels, write_text
+from incandescent.imaging import DisplaySettings, lit_percentile, to_display
+from incandescent.io.docpage import PageImages
+from incandescent.io.output import display_pixels
 from incandescent.render import HDRImage, RenderSettings, render
 from incandescent.species_scenes import (
     CLEAN_SPECIES,
@@ -80,9 +80,7 @@ def render_flames(sizes: Sizes, backend: str) -> dict[str, HDRImage]:
 
 def p99(image: HDRImage) -> float:
     """99th percentile of the lit pixels' luminance, cd/m² (what auto exposure maps to 0.8)."""
-    lum = image.luminance
-    lit = lum[lum > 0]
-    return float(np.percentile(lit, 99)) if lit.size else 0.0
+    return lit_percentile(image.luminance)
 
 
 def image_xy(image: HDRImage) -> NDArray[np.float64]:
@@ -319,16 +317,6 @@ little, nothing turns black).
 """
 
 
-# --- writing -----------------------------------------------------------------------------------
-def _write_text(path: Path, text: str) -> Path:
-    return write_text(path, text, overwrite=True)
-
-
-def _png(path: Path, pixels: NDArray[np.uint8], title: str) -> Path:
-    meta = {"Title": title, "Software": f"incandescent {__version__} scripts/species_gallery.py"}
-    return write_png(path, pixels, overwrite=True, metadata=meta)
-
-
 def main(argv: Sequence[str] | None = None) -> list[Path]:
     """Write species.md and species/*.png into ``--out``; return the paths written (page last)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -339,16 +327,8 @@ def main(argv: Sequence[str] | None = None) -> list[Path]:
     sizes = QUICK if args.quick else FULL
     start = time.perf_counter()
     table = load_lines()
-    image_dir = args.out / IMAGE_DIR
-    image_dir.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    rel: dict[str, str] = {}
-
-    def emit(key: str, pixels: NDArray[np.uint8], title: str) -> None:
-        name = f"{key}.png"
-        written.append(_png(image_dir / name, pixels, title))
-        rel[key] = f"{IMAGE_DIR}/{name}"
-
+    page = PageImages(args.out, IMAGE_DIR, "scripts/species_gallery.py")
+    emit = page.add
     images = render_flames(sizes, args.backend)
     for name, image in images.items():
         emit(name, display_pixels(image, DISPLAY), f"species_scenes {name} flame, physical")
@@ -388,9 +368,7 @@ def main(argv: Sequence[str] | None = None) -> list[Path]:
         "power_ratio": band_power(table, "CH") / band_power(table, "C2"),
         "sooty_tau": sooty_tau,
     }
-    written.append(_write_text(args.out / "species.md", markdown(rel, facts, species_rows(table))))
-    for path in written:
-        print(f"wrote {path}")
+    written = page.page("species.md", markdown(page.links, facts, species_rows(table)))
     print(f"species gallery: {time.perf_counter() - start:.1f} s")
     return written
 

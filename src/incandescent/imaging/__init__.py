@@ -5,6 +5,7 @@ from incandescent.imaging.exposure import (
     auto_exposure_scale,
     camera_exposure_scale,
     ev_scale,
+    lit_percentile,
     saturation_luminance,
 )
 from incandescent.imaging.pipeline import DisplaySettings, to_display
@@ -17,6 +18,7 @@ __all__ = [
     "camera_exposure_scale",
     "ev_scale",
     "gamut_map",
+    "lit_percentile",
     "quantize",
     "saturation_luminance",
     "srgb_oetf",

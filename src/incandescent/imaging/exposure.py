@@ -91,8 +91,13 @@ def auto_exposure_scale(
     if not 0.0 < pct <= 100.0:
         raise ValueError(f"percentile must be in (0, 100]; got {percentile!r}")
     goal = _validate.positive_scalar(target, "target")
-    lit = lum[lum > 0]
-    if lit.size == 0:
-        return 1.0
-    reference = float(np.percentile(lit, pct))
+    reference = lit_percentile(lum, pct)
     return goal / reference if reference > 0 else 1.0
+
+
+def lit_percentile(luminance: ArrayLike, percentile: float = 99.0) -> float:
+    """The ``percentile``-th percentile of the pixels with luminance > 0 (what auto exposure
+    maps to its target); 0.0 when no pixel is lit."""
+    lum = np.asarray(luminance)
+    lit = lum[lum > 0]
+    return float(np.percentile(lit, percentile)) if lit.size else 0.0
