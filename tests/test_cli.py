@@ -237,9 +237,13 @@ def test_demo_plate_writes_a_resumable_video(tmp_path):
     frames = sorted((tmp_path / "plate_frames").glob("frame_*.png"))
     assert len(frames) == 3
     frames[1].unlink()
-    result = _run(*args, "--overwrite")
+    out.unlink()  # as after an interrupted run: the video is made last
+    result = _run(*args)
     assert result.exit_code == 0, result.output
     assert "1 rendered, 2 reused" in " ".join(result.output.split())
+    result = _run(*args, "--overwrite")  # renders every frame again
+    assert result.exit_code == 0, result.output
+    assert "3 rendered, 0 reused" in " ".join(result.output.split())
 
 
 def test_temperature_range_maps_a_normalised_field(tmp_path):
@@ -269,9 +273,13 @@ def test_animate_a_sequence_of_files_resumes(tmp_path):
     result = _run(*args)
     assert result.exit_code == 0, result.output
     assert Image.open(out).n_frames == 3
-    again = _run(*args, "--overwrite")
+    out.unlink()
+    again = _run(*args)
     assert again.exit_code == 0, again.output
     assert "0 rendered, 3 reused" in " ".join(again.output.split())
+    again = _run(*args, "--overwrite")
+    assert again.exit_code == 0, again.output
+    assert "3 rendered, 0 reused" in " ".join(again.output.split())
     missing = _run("animate", str(tmp_path / "nothing_*.npy"), "-o", tmp_path / "x.mp4")
     assert missing.exit_code == 2 and "no files match" in missing.output
 

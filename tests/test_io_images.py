@@ -143,9 +143,9 @@ def test_failure_while_moving_into_place_cleans_up(tmp_path, monkeypatch):
 
 def test_missing_directory_is_a_clear_error(tmp_path):
     target = tmp_path / "nope" / "a.exr"
-    with pytest.raises(FileNotFoundError, match=r"directory .*nope does not exist"):
+    with pytest.raises(FileNotFoundError, match=r"folder .*nope does not exist"):
         write_exr(target, np.zeros((2, 2, 3)))
-    with pytest.raises(FileNotFoundError, match=r"directory .*nope does not exist"):
+    with pytest.raises(FileNotFoundError, match=r"folder .*nope does not exist"):
         write_png(tmp_path / "nope" / "a.png", np.zeros((2, 2, 3), np.uint8))
 
 

@@ -65,6 +65,11 @@ class CountingRenderer:
         return np.full((6, 8, 3), (index * 20) % 256, dtype=np.uint8)
 
 
+def _frame_files(folder) -> list[str]:
+    """The PNG frames and any temporary files in a sequence folder (not its manifest, lock)."""
+    return sorted(p for p in os.listdir(folder) if p.startswith("frame_") or p.endswith(".tmp"))
+
+
 def test_mp4_round_trip(tmp_path):
     frames = _frames(7)
     out = write_mp4(frames, tmp_path / "clip.mp4", fps=10)
@@ -169,7 +174,7 @@ def test_interrupted_run_leaves_no_partial_frame_and_resumes(tmp_path):
     folder = tmp_path / "seq"
     with pytest.raises(RuntimeError, match="frame 2"):
         render_sequence(_volumes(5), 5, folder, CountingRenderer(fail_at=2), progress=False)
-    assert sorted(os.listdir(folder)) == ["frame_00000.png", "frame_00001.png"]
+    assert _frame_files(folder) == ["frame_00000.png", "frame_00001.png"]
     renderer = CountingRenderer()
     paths = render_sequence(_volumes(5), 5, folder, renderer, progress=False)
     assert renderer.calls == [2, 3, 4]
@@ -190,7 +195,9 @@ def test_interrupt_while_writing_a_frame_leaves_no_partial_file(tmp_path, monkey
     folder = tmp_path / "seq"
     with pytest.raises(KeyboardInterrupt):
         render_sequence(_volumes(3), 3, folder, CountingRenderer(), progress=False)
-    assert os.listdir(folder) == ["frame_00000.png"]
+    assert [p for p in os.listdir(folder) if p.endswith(".png") or p.endswith(".tmp")] == [
+        "frame_00000.png"
+    ]
     monkeypatch.setattr(images_module.os, "fsync", real_fsync)
     renderer = CountingRenderer()
     render_sequence(_volumes(3), 3, folder, renderer, progress=False)
@@ -232,11 +239,14 @@ def test_animate_gif_and_folder(tmp_path, capsys):
     with pytest.raises(FileExistsError):  # refused before rendering anything
         animate(_volumes(4), 4, tmp_path / "anim.gif", renderer, progress=False)
     assert renderer.calls == [0, 1, 2, 3]
+    (tmp_path / "anim.gif").unlink()  # frames made with the same key are reused
+    again = animate(_volumes(4), 4, tmp_path / "anim.gif", renderer, progress=False)
+    assert (again.rendered, again.reused) == (0, 4)
     again = animate(_volumes(4), 4, tmp_path / "anim.gif", renderer, overwrite=True)
-    assert (again.rendered, again.reused) == (0, 4)  # frames reused, video re-assembled
+    assert (again.rendered, again.reused) == (4, 0)  # overwrite renders every frame again
     folder = animate(_volumes(2), 2, tmp_path / "pngs", CountingRenderer(), progress=False)
     assert folder.video is None
-    assert sorted(os.listdir(tmp_path / "pngs")) == ["frame_00000.png", "frame_00001.png"]
+    assert _frame_files(tmp_path / "pngs") == ["frame_00000.png", "frame_00001.png"]
     with pytest.raises(ValueError, match="unsupported animation format"):
         animate(_volumes(2), 2, tmp_path / "x.avi", CountingRenderer(), progress=False)
 

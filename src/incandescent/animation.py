@@ -62,11 +62,22 @@ def render_video(
     overwrite: bool = False,
     progress: bool = True,
     fps: float = 25.0,
+    frame_input: Callable[[int], str] | None = None,
 ) -> AnimationSummary:
     """Render frames 0 … n_frames − 1 of ``volume_at`` to ``output`` (.mp4, .gif or a folder),
     seen by ``camera`` — one camera, or a path ``frame ↦ Camera`` (``incandescent.camera.paths``).
+
+    ``frame_input(i)`` describes frame i's input without reading it (a file's path, size and
+    modification time; a scene's parameters). It goes, with the package version, the render and
+    display settings and the frame's camera, into the key each frame is recorded under
+    (:func:`frame_key`): a frame on disk is reused only when its key matches, and ``overwrite``
+    renders every frame again. The backend is not part of the key (backends agree to 1e-4).
     """
     camera_at = camera if callable(camera) else (lambda _: camera)
+    describe = frame_input or (lambda _: "")
+
+    def key(index: int) -> str:
+        return frame_key(describe(index), camera_at(index), settings, display)
 
     def frame(index: int) -> Any:  # the volume travels with its camera to render_frame
         return volume_at(index), camera_at(index)
@@ -76,8 +87,33 @@ def render_video(
         return display_pixels(render(volume, cam, settings, backend=backend), display)
 
     return animate(
-        frame, n_frames, output, render_frame, fps=fps, overwrite=overwrite, progress=progress
+        frame,
+        n_frames,
+        output,
+        render_frame,
+        fps=fps,
+        overwrite=overwrite,
+        progress=progress,
+        frame_key=key,
     )
+
+
+def frame_key(
+    frame_input: str, camera: Camera, settings: RenderSettings, display: DisplaySettings
+) -> str:
+    """A digest of everything that makes a frame's pixels: input, camera, settings, version."""
+    import hashlib
+
+    from incandescent import __version__
+
+    text = "\n".join((__version__, frame_input, repr(camera), repr(settings), repr(display)))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def file_identity(path: str | Path) -> str:
+    """A file's resolved path, size and modification time (ns): changes when the file does."""
+    info = Path(path).stat()
+    return f"{Path(path).resolve()} {info.st_size} {info.st_mtime_ns}"
 
 
 def expand_sequence(pattern: str) -> list[Path]:

@@ -1,9 +1,8 @@
 """Image files: scene-linear OpenEXR and display PNG, written atomically with metadata.
 
-Every writer first writes a hidden temporary file (``.<name>.<random>.tmp``) in the target's
-directory and then moves it into place (``os.link`` when overwriting is not allowed, so an
-existing file is never clobbered even by a concurrent writer; ``os.replace`` otherwise). A failed
-write removes the temporary file and leaves any existing file untouched.
+Every writer goes through :func:`incandescent.io.atomic.atomic_write`: a hidden temporary file
+beside the target, moved into place; only regular files are ever replaced, and a failed write
+leaves any existing file untouched and no temporary file behind.
 
 PNG is encoded here with :mod:`zlib` (ISO/IEC 15948:2004, the PNG specification) rather than
 Pillow, because Pillow has no 48-bit (16 bit per channel) RGB image mode to write from.
@@ -13,15 +12,15 @@ from __future__ import annotations
 
 import os
 import struct
-import uuid
 import zlib
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from incandescent import _validate
+from incandescent.io.atomic import atomic_write
 
 PathLike = str | os.PathLike
 
@@ -45,67 +44,6 @@ EXR_RESERVED_ATTRIBUTES: frozenset[str] = frozenset(
 )
 _RGB = ("R", "G", "B")
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
-# --- atomic writes -------------------------------------------------------------------------
-
-
-def _target_path(path: PathLike, overwrite: bool) -> Path:
-    """Validate the destination: parent directory exists, no overwrite unless allowed."""
-    target = Path(os.fspath(path))
-    parent = target.parent if str(target.parent) else Path(".")
-    if not parent.is_dir():
-        raise FileNotFoundError(
-            f"cannot write {target}: directory {parent} does not exist (create it first)"
-        )
-    if target.is_dir():
-        raise IsADirectoryError(f"cannot write {target}: it is a directory")
-    if target.exists() and not overwrite:
-        raise _exists_error(target)
-    return target
-
-
-def _exists_error(target: Path) -> FileExistsError:
-    return FileExistsError(f"{target} already exists; pass overwrite=True to replace it")
-
-
-def _commit(tmp: Path, target: Path, overwrite: bool) -> None:
-    """Move ``tmp`` to ``target`` atomically; without ``overwrite`` never clobber a file."""
-    if overwrite:
-        os.replace(tmp, target)
-        return
-    try:
-        os.link(tmp, target)  # fails atomically if target appeared meanwhile
-    except FileExistsError:
-        raise _exists_error(target) from None
-    except OSError:  # file system without hard links: check, then rename
-        if target.exists():
-            raise _exists_error(target) from None
-        os.replace(tmp, target)
-        return
-    tmp.unlink()
-
-
-def atomic_write(path: PathLike, write: Callable[[Path], None], overwrite: bool = False) -> Path:
-    """Call ``write(tmp_path)`` then move the result to ``path``; clean up on any failure.
-
-    Returns the final path. Raises ``FileExistsError`` if ``path`` exists and ``overwrite`` is
-    false, ``FileNotFoundError`` if its directory does not exist.
-    """
-    _validate_flag(overwrite, "overwrite")
-    target = _target_path(path, overwrite)
-    tmp = target.with_name(f".{target.name}.{uuid.uuid4().hex}.tmp")
-    try:
-        write(tmp)
-        _commit(tmp, target, overwrite)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return target
-
-
-def _validate_flag(value: object, name: str) -> None:
-    if not isinstance(value, (bool, np.bool_)):
-        raise TypeError(f"{name} must be True or False; got {type(value).__name__} {value!r}")
 
 
 def _check_metadata(metadata: Mapping[str, str] | None) -> dict[str, str]:

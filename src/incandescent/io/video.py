@@ -20,7 +20,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from incandescent.io.images import _target_path, atomic_write, write_png
+from incandescent.io.atomic import atomic_write, check_output, exclusive_lock
+from incandescent.io.images import write_png
+from incandescent.io.output import write_json
 from incandescent.volume import Volume
 
 PathLike = str | os.PathLike
@@ -219,19 +221,56 @@ def _png_size(path: Path) -> tuple[int, int] | None:
 
 
 def _existing_frames(frame_dir: Path, n_frames: int) -> dict[int, tuple[int, int]]:
-    """Readable frames already in the folder, index → (width, height); one size or an error."""
+    """Readable frames already in the folder, index → (width, height)."""
     done = {}
     for i in range(n_frames):
         size = _png_size(frame_path(frame_dir, i))
         if size is not None:
             done[i] = size
-    sizes = sorted(set(done.values()))
-    if len(sizes) > 1:
-        raise ValueError(
-            f"{frame_dir} holds frames of different sizes {sizes} (width, height); "
-            "delete the stale frames or render into another folder"
-        )
     return done
+
+
+#: The record of what made each frame of a sequence, beside the frames.
+MANIFEST_NAME = "manifest.json"
+#: The lock file in a frame folder that one run holds while it writes there.
+LOCK_NAME = ".lock"
+
+
+def _read_manifest(frame_dir: Path) -> dict[str, str]:
+    """Frame index (as text) → the key of what made it; {} if there is no readable manifest."""
+    import json
+
+    try:
+        data = json.loads((frame_dir / MANIFEST_NAME).read_text(encoding="utf-8"))
+        frames = data["frames"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+    ok = isinstance(frames, dict) and all(isinstance(v, str) for v in frames.values())
+    return frames if ok else {}
+
+
+def _write_manifest(frame_dir: Path, keys: dict[str, str]) -> None:
+    from incandescent import __version__
+
+    data = {"format": 1, "written_by": f"incandescent {__version__}", "frames": keys}
+    write_json(frame_dir / MANIFEST_NAME, data, overwrite=True)
+
+
+def _reusable(frame_dir: Path, n_frames: int, key_of: Callable[[int], str], rerender: bool):
+    """(frames to keep: index → (width, height), manifest entries to keep); frames made with
+    another key are refused unless ``rerender``, which discards every frame."""
+    if rerender:
+        return {}, {}
+    manifest = _read_manifest(frame_dir)
+    present = _existing_frames(frame_dir, n_frames)
+    stale = [i for i in present if manifest.get(str(i)) != key_of(i)]
+    if stale:
+        raise FileExistsError(
+            f"{frame_dir} holds {len(stale)} frame(s) (first: {FRAME_NAME.format(stale[0])}) "
+            "rendered from other input, settings or version; pass --overwrite (overwrite=True) "
+            "to render every frame again, or use another output"
+        )
+    return present, {str(i): manifest[str(i)] for i in present}
 
 
 def _volume_stream(volumes: VolumeSource, n_frames: int, todo: set[int]) -> Iterator[tuple]:
@@ -285,14 +324,16 @@ def _render_missing(
     frame_dir: Path,
     render_frame: RenderFrame,
     progress: bool,
+    frame_key: Callable[[int], str] | None = None,
+    rerender: bool = False,
 ) -> tuple[list[Path], int]:
-    """Render the frames not yet in ``frame_dir``; returns all frame paths and how many rendered."""
-    if frame_dir.exists() and not frame_dir.is_dir():
-        raise NotADirectoryError(f"frame folder {frame_dir} exists and is not a directory")
-    frame_dir.mkdir(parents=True, exist_ok=True)
-    done = _existing_frames(frame_dir, n_frames)
+    """Render the frames not yet in ``frame_dir`` (or made from another key); returns all frame
+    paths and how many were rendered. The caller holds the folder's lock."""
+    key_of = frame_key or (lambda _: "")
+    done, keys = _reusable(frame_dir, n_frames, key_of, rerender)
     todo = set(range(n_frames)) - done.keys()
-    shape = None if not done else tuple(reversed(next(iter(done.values())))) + (3,)
+    sizes = set(done.values())
+    shape = None if len(sizes) != 1 else tuple(reversed(sizes.pop())) + (3,)
     bar, task = _progress(progress, len(todo), len(done))
     with bar:
         for i, volume in _volume_stream(volumes, n_frames, todo):
@@ -300,9 +341,22 @@ def _render_missing(
             shape = image.shape
             path = frame_path(frame_dir, i)
             write_png(path, image, overwrite=path.exists(), metadata={"frame": str(i)})
+            keys[str(i)] = key_of(i)
+            _write_manifest(frame_dir, keys)  # after the frame: a frame without entry is redone
             bar.advance(task)
             bar.update(task, rate=_rate(bar.tasks[0]))
     return [frame_path(frame_dir, i) for i in range(n_frames)], len(todo)
+
+
+def _frame_folder(frame_dir: Path) -> Path:
+    """Create the frame folder if needed; refuse anything that is not a writable folder."""
+    if frame_dir.exists() and not frame_dir.is_dir():
+        raise NotADirectoryError(f"frame folder {frame_dir} exists and is not a folder")
+    if not frame_dir.exists():
+        check_output(frame_dir, what="frame folder")  # its parent exists and is writable
+        frame_dir.mkdir()
+    check_output(frame_dir / MANIFEST_NAME, overwrite=True)  # the folder is writable
+    return frame_dir
 
 
 def render_sequence(
@@ -311,6 +365,8 @@ def render_sequence(
     frame_dir: PathLike,
     render_frame: RenderFrame,
     progress: bool = True,
+    frame_key: Callable[[int], str] | None = None,
+    overwrite: bool = False,
 ) -> list[Path]:
     """Render frames 0 … n_frames − 1 to ``frame_dir/frame_00000.png`` …, resuming.
 
@@ -329,6 +385,12 @@ def render_sequence(
         with a fixed exposure (auto exposure per frame makes a video flicker).
     progress:
         Show a progress bar (frames/s, ETA) on stderr.
+    frame_key:
+        ``index → str``: what makes frame i (input identity, settings, camera; see
+        :func:`incandescent.animation.render_video`), recorded in ``manifest.json`` beside the
+        frames. None: every frame has the key "".
+    overwrite:
+        Render every frame again, whatever is in the folder.
 
     Returns
     -------
@@ -336,15 +398,20 @@ def render_sequence(
 
     Notes
     -----
-    A frame whose PNG already exists and is readable is not rendered again; a missing, truncated
-    or corrupt one is (re)rendered. Each PNG is written to a temporary file first and moved into
-    place, so an interrupted run (exception, Ctrl-C) leaves no partial frame under a frame name.
-    Frames already present must all have one size, and new ones must match it (``ValueError``).
+    A frame is reused only when its PNG is readable and the manifest records the same key for
+    it; a missing, truncated or corrupt one is (re)rendered, and one made from another key is
+    refused (``FileExistsError``) unless ``overwrite``. Each PNG is written to a temporary file
+    first and moved into place, and its manifest entry is written after it, so an interrupted run
+    (exception, Ctrl-C, SIGKILL) leaves no partial or unrecorded frame that a rerun would reuse.
+    One run at a time writes a folder: a second one fails at once (:class:`OutputError` naming
+    the owner's pid). New frames must have the size of the frames kept (``ValueError``).
     """
     n_frames = _check_count(n_frames)
-    paths, _ = _render_missing(
-        volumes, n_frames, Path(os.fspath(frame_dir)), render_frame, progress
-    )
+    folder = _frame_folder(Path(os.fspath(frame_dir)))
+    with exclusive_lock(folder / LOCK_NAME, str(folder)):
+        paths, _ = _render_missing(
+            volumes, n_frames, folder, render_frame, progress, frame_key, overwrite
+        )
     return paths
 
 
@@ -402,9 +469,18 @@ def _plan_output(
             f"{output}: unsupported animation format {output.suffix!r}; expected "
             f"{', '.join(VIDEO_SUFFIXES)} or a folder (no suffix) for PNG frames"
         )
-    _target_path(output, overwrite)  # FileExistsError / FileNotFoundError now, not after hours
+    check_output(output, overwrite, VIDEO_SUFFIXES, "animation")  # now, not after hours
     folder = output.with_name(f"{output.stem}_frames") if frame_dir is None else frame_dir
     return Path(os.fspath(folder)), suffix
+
+
+def _assemble(frames: list[Path], output: Path, suffix: str | None, fps: float, overwrite: bool):
+    """The video made from the frame PNGs, or None for a folder output."""
+    if suffix == ".mp4":
+        return write_mp4(read_frames(frames), output, fps=fps, overwrite=overwrite)
+    if suffix == ".gif":
+        return write_gif(read_frames(frames), output, fps=fps, overwrite=overwrite)
+    return None
 
 
 def animate(
@@ -416,6 +492,7 @@ def animate(
     frame_dir: PathLike | None = None,
     overwrite: bool = False,
     progress: bool = True,
+    frame_key: Callable[[int], str] | None = None,
 ) -> AnimationSummary:
     """Render a sequence to PNG frames, then assemble ``output`` from them.
 
@@ -423,20 +500,23 @@ def animate(
     a video assembled from the frames in ``frame_dir`` (default: ``<output stem>_frames/`` next
     to it), which stay there, so a rerun after an interruption renders only the missing frames.
     Any other ``output`` (a folder, or a name without suffix) receives the PNG frames themselves.
-    An existing video is refused before any rendering unless ``overwrite``; frames already in
-    the folder are always reused (delete them to render again). With ``progress``, a progress
-    bar and then the summary are printed to stderr. Returns the :class:`AnimationSummary`.
+    An existing video is refused before any rendering unless ``overwrite``. Frames already in
+    the folder are reused when ``frame_key`` matches their manifest entry (see
+    :func:`render_sequence`); ``overwrite`` renders them all again. The frame folder is locked
+    for the whole call, so a second run on the same output fails at once. With ``progress``, a
+    progress bar and then the summary are printed to stderr. Returns the
+    :class:`AnimationSummary`.
     """
     start = time.perf_counter()
     n_frames, fps = _check_count(n_frames), _check_fps(fps)
     output = Path(os.fspath(output))
     folder, suffix = _plan_output(output, frame_dir, overwrite)
-    frames, rendered = _render_missing(volumes, n_frames, folder, render_frame, progress)
-    video = None
-    if suffix == ".mp4":
-        video = write_mp4(read_frames(frames), output, fps=fps, overwrite=overwrite)
-    elif suffix == ".gif":
-        video = write_gif(read_frames(frames), output, fps=fps, overwrite=overwrite)
+    folder = _frame_folder(folder)
+    with exclusive_lock(folder / LOCK_NAME, str(output)):
+        frames, rendered = _render_missing(
+            volumes, n_frames, folder, render_frame, progress, frame_key, overwrite
+        )
+        video = _assemble(frames, output, suffix, fps, overwrite)
     seconds = time.perf_counter() - start
     summary = AnimationSummary(
         tuple(frames), folder, video, rendered, n_frames - rendered, fps, seconds

@@ -44,6 +44,7 @@ def render_plate_video(
         backend=backend,
         overwrite=overwrite,
         progress=progress,
+        frame_input=lambda i: f"{scene!r} frame {i}",
     )
 
 

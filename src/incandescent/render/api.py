@@ -8,6 +8,7 @@ import platform
 import numpy as np
 
 from incandescent import __version__
+from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
 from incandescent.colorimetry import rgb_to_xyz
 from incandescent.render.backends import MarchInputs, resolve_backend, run_march
@@ -16,7 +17,7 @@ from incandescent.render.rays import prepare_rays, ray_spec
 from incandescent.render.settings import RenderSettings
 from incandescent.spectra.bins import bin_luts, make_bins
 from incandescent.spectra.lines import LineTable, build_species_lut, load_lines, species_names
-from incandescent.spectra.lut import EmissionLUT, build_emission_lut
+from incandescent.spectra.lut import T_MAX_K, EmissionLUT, build_emission_lut
 from incandescent.volume import Volume
 
 
@@ -36,8 +37,13 @@ def _cached_lut(t_max_K: float, kind: str, observer: str, constants: str) -> Emi
 
 
 def _lut_t_max(volume: Volume) -> float:
-    t_max = max(1e5, float(np.nextafter(np.float32(volume.max_temperature_K), np.inf)) * 1.001)
-    return float(np.ceil(t_max / 100.0) * 100.0) if t_max > 1e5 else 1e5
+    """Top of the tables: T_MAX_K, which no volume exceeds (``volume.grid.T_CEILING_K``)."""
+    if volume.max_temperature_K > T_MAX_K:  # only a Volume built without from_arrays can be
+        raise ValueError(
+            f"volume's hottest voxel {volume.max_temperature_K:.4g} K is above the "
+            f"{T_MAX_K:g} K ceiling of the emission tables"
+        )
+    return T_MAX_K
 
 
 def emission_lut(volume: Volume, settings: RenderSettings, kind: str | None = None) -> EmissionLUT:
@@ -46,21 +52,64 @@ def emission_lut(volume: Volume, settings: RenderSettings, kind: str | None = No
     return _cached_lut(_lut_t_max(volume), kind, settings.observer, settings.constants)
 
 
+#: Host and device bytes per camera ray of a render (lane order, loop state, per-ray outputs and
+#: their float64 copies, pixel assembly); the reference backend's lockstep NumPy march far more.
+BYTES_PER_RAY = {"reference": 1024, "cpu": 256, "cuda": 256}
+
+
+def _check_types(volume, camera, settings) -> None:
+    for value, kind, name in (
+        (volume, Volume, "volume"),
+        (camera, (Camera, type(None)), "camera"),
+        (settings, (RenderSettings, type(None)), "settings"),
+    ):
+        if not isinstance(value, kind):
+            want = kind.__name__ if isinstance(kind, type) else f"{kind[0].__name__} or None"
+            raise TypeError(
+                f"{name} must be an incandescent {want}; got {type(value).__name__} {value!r:.60}"
+            )
+
+
+def render_estimate(volume: Volume, settings: RenderSettings, backend: str) -> tuple[float, float]:
+    """(bytes, samples) a render needs at most: padded device grids plus per-ray state, and one
+    sample per step along the box diagonal for every ray (the upper bound: no skipping, no
+    early termination)."""
+    rays = float(settings.width * settings.height * settings.supersample**2)
+    padded = float(np.prod([n + 2 for n in volume.shape]))
+    grids = 1 + (volume.emission_scale is not None) + (volume.sodium_fraction is not None)
+    grid_bytes = padded * (8 + 4 * (grids - 1 + len(volume.species)))
+    diagonal_voxels = float(np.linalg.norm(volume.shape))
+    samples = rays * (np.ceil(diagonal_voxels / settings.step_voxels) + 1)
+    return grid_bytes + rays * BYTES_PER_RAY[backend], samples
+
+
+def check_budget(volume: Volume, settings: RenderSettings, backend: str, limits: Limits) -> None:
+    """Refuse a render whose memory or samples exceed ``limits`` (:mod:`incandescent.budget`)."""
+    need, samples = render_estimate(volume, settings, backend)
+    what = f"rendering {settings.width}×{settings.height} of a {volume.shape} volume"
+    limits.check_memory(need, what)
+    limits.check_samples(samples, f"{what} at step {settings.step_voxels:g} voxels")
+
+
 def render(
     volume: Volume,
     camera: Camera | None = None,
     settings: RenderSettings | None = None,
     backend: str | None = "auto",
+    limits: Limits | None = None,
 ) -> HDRImage:
     """Render ``volume`` seen by ``camera`` (default: a three-quarter view framing the gas).
 
     Returns absolute XYZ (Y in cd/m²) with metadata: backend, device, samples, seconds, settings.
+    The render is estimated first and refused (:class:`~incandescent.budget.BudgetError`) when
+    it exceeds ``limits`` (default: the memory available now and 1e11 samples). A Ctrl-C during
+    the march is honoured within about a second (the fast backends march in chunks of rays).
     """
-    if not isinstance(volume, Volume):
-        raise TypeError(f"volume must be an incandescent.Volume; got {type(volume).__name__}")
+    _check_types(volume, camera, settings)
     settings = settings or RenderSettings()
     camera = camera or default_camera(volume.content_bounds_m)
     name = resolve_backend(backend)
+    check_budget(volume, settings, name, limits or Limits())
     inputs = _march_inputs(volume, camera, settings, name)
     result = run_march(inputs, name)
     return _assemble(inputs, result, name, camera)

@@ -26,6 +26,10 @@ from incandescent.volume.macrocells import MacrocellGrid, build_macrocells
 DEFAULT_ABSORPTION_MIN_K = 500.0
 #: Default optical depth across the largest side of the box.
 DEFAULT_OPTICAL_DEPTH = 1.0
+#: Hottest temperature a volume may hold, K: the top of the emission tables
+#: (``incandescent.spectra.lut.T_MAX_K``), so a table never grows with the input. Gas this hot is
+#: a plasma far outside the blackbody-gas model; hotter voxels are nearly always a wrong remap.
+T_CEILING_K = 100_000.0
 
 
 @dataclass(frozen=True)
@@ -175,6 +179,7 @@ class Volume:
         """Validate and place grids; ``source`` names the data's origin in error messages."""
         raw = _grid(temperature, f"{source}")
         temp = _remapped_temperature(raw, remap or Remap(), source)
+        _check_ceiling(temp, remap or Remap(), source)
         vacuum = temp < (remap or Remap()).cutoff_K
         temp[vacuum] = 0.0
         voxel = _voxel_size(voxel_size_m, temp.shape)
@@ -212,6 +217,19 @@ def _remapped_temperature(raw: NDArray, remap: Remap, source: str) -> NDArray[np
             "fix the remap or set a cutoff"
         )
     return temp
+
+
+def _check_ceiling(temp: NDArray, remap: Remap, source: str) -> None:
+    """Refuse voxels hotter than T_CEILING_K, naming the first and the remap that made it."""
+    hot = temp > T_CEILING_K
+    if hot.any():
+        index = tuple(int(i) for i in np.argwhere(hot)[0])
+        raise ValueError(
+            f"{source}: temperature {temp[index]:.4g} K at voxel {index} is above the "
+            f"{T_CEILING_K:g} K ceiling of the emission tables (remap offset={remap.offset:g}, "
+            f"scale={remap.scale:g}); if the field is not in kelvin, map it with --scale, "
+            "--temperature-range or a --preset"
+        )
 
 
 def _voxel_size(voxel_size_m: float | None, shape: tuple[int, ...]) -> float:

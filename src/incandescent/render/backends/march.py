@@ -407,9 +407,11 @@ def _clip(dr, m, o, d, shape):
     return t0, t1
 
 
-def trace(inputs: MarchInputs, m, order):
-    """Trace the megakernel for all rays; returns lazy (XYZ, transmittance, samples, depth)."""
-    dr, K = drjit_module(), _Kernel(m, inputs)
+def trace(inputs: MarchInputs, m, order, K: _Kernel | None = None):
+    """Trace the megakernel for the rays in ``order``; returns lazy (XYZ, transmittance,
+    samples, depth). ``K``: the kernel's bound tables and grids (built once per render)."""
+    dr = drjit_module()
+    K = K or _Kernel(m, inputs)
     o, d, t0, t1, j = _ray_arrays(m, inputs.ray_spec, order)
     dt, skipping = K.dt, K.cells is not None
 
@@ -455,36 +457,75 @@ def trace(inputs: MarchInputs, m, order):
     return L, tr, n, depth
 
 
-def march(inputs: MarchInputs, kind: str) -> MarchResult:
-    """Run the megakernel on backend ``kind`` ("cpu" or "cuda")."""
-    m = array_module(kind)
+#: Chunks of rays. The first holds FIRST_CHUNK_SAMPLES upper-bound samples (rays × steps across
+#: the box diagonal): a 512² image of a 256³ volume at step 0.5 is one chunk. Later chunks take
+#: about CHUNK_SECONDS at the last chunk's ray rate, grow at most 2× per chunk (rays elsewhere in
+#: the image can cost far more) and hold at most MAX_CHUNK_SAMPLES upper-bound samples. Below
+#: MIN_CHUNK_RAYS the CPU backend loses its threads (Dr.Jit hands threads blocks of 16 384
+#: lanes). A Ctrl-C raises KeyboardInterrupt between chunks.
+FIRST_CHUNK_SAMPLES, MAX_CHUNK_SAMPLES = 2.5e8, 1e9
+CHUNK_SECONDS = 0.25
+MIN_CHUNK_RAYS, MAX_CHUNK_RAYS = 1 << 15, 1 << 22
+
+
+def _upper_samples_per_ray(spec, settings) -> float:
+    return float(np.linalg.norm(spec.shape) / settings.step_voxels + 1.0)
+
+
+def _first_chunk(spec, settings) -> int:
+    per_ray = _upper_samples_per_ray(spec, settings)
+    return int(np.clip(FIRST_CHUNK_SAMPLES / per_ray, MIN_CHUNK_RAYS, MAX_CHUNK_RAYS))
+
+
+def _next_chunk(rays: int, seconds: float, upper_per_ray: float) -> int:
+    """Rays in the next chunk after ``rays`` took ``seconds`` (see CHUNK_SECONDS)."""
+    size = min(2 * rays, rays / max(seconds, 1e-3) * CHUNK_SECONDS)
+    size = min(size, MAX_CHUNK_SAMPLES / upper_per_ray)
+    return int(np.clip(size, MIN_CHUNK_RAYS, MAX_CHUNK_RAYS))
+
+
+def _march_chunk(inputs: MarchInputs, m, K: _Kernel, order) -> tuple[list[np.ndarray], int, float]:
+    """March the rays of one chunk: ([X, Y, Z, Tr, depth] per lane, samples, compile seconds)."""
     dr = drjit_module()
-    spec = inputs.ray_spec
-    assert spec is not None, "the Dr.Jit kernels generate their rays from a RaySpec"
-    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
-        dr.kernel_history()  # clear
-        start = time.perf_counter()
-        order = lane_order(spec.width, spec.height, spec.supersample)
-        L, tr, n, depth = trace(inputs, m, order)
-        dr.eval(L, tr, n, depth)
-        dr.sync_thread()
-        wall = time.perf_counter() - start
-        compile_s = sum(_compile_seconds(h) for h in dr.kernel_history())
-    lanes = spec.n_total
+    dr.kernel_history()  # clear
+    L, tr, n, depth = trace(inputs, m, order, K)
+    dr.eval(L, tr, n, depth)
+    dr.sync_thread()
+    compile_s = sum(_compile_seconds(h) for h in dr.kernel_history())
+    lanes = len(order[0])
 
     def per_lane(values) -> np.ndarray:  # a loop variable no lane changed comes back as 1 value
         return np.broadcast_to(np.asarray(values, dtype=np.float64), (lanes,))
 
-    xyz = np.stack([per_lane(L[a]) for a in range(3)], axis=1)
-    samples = int(np.asarray(n, dtype=np.uint64).sum())
+    columns = [per_lane(L[a]) for a in range(3)] + [per_lane(tr), per_lane(depth)]
+    return columns, int(np.asarray(n, dtype=np.uint64).sum()), compile_s
+
+
+def march(inputs: MarchInputs, kind: str) -> MarchResult:
+    """Run the megakernel on backend ``kind`` ("cpu" or "cuda"), in chunks of rays (a Ctrl-C
+    raises KeyboardInterrupt between chunks, within about CHUNK_SECONDS)."""
+    m = array_module(kind)
+    dr = drjit_module()
+    spec = inputs.ray_spec
+    assert spec is not None, "the Dr.Jit kernels generate their rays from a RaySpec"
+    order = lane_order(spec.width, spec.height, spec.supersample)
+    parts, samples, march_s = [], 0, 0.0
+    start, size = 0, _first_chunk(spec, inputs.settings)
+    upper_per_ray = _upper_samples_per_ray(spec, inputs.settings)
+    with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
+        K = _Kernel(m, inputs)
+        while start < spec.n_total:
+            chunk = [a[start : start + size] for a in order]
+            began = time.perf_counter()
+            columns, n, compile_s = _march_chunk(inputs, m, K, chunk)
+            seconds = max(time.perf_counter() - began - compile_s, 0.0)
+            parts.append(np.stack(columns, axis=1))
+            samples, march_s = samples + n, march_s + seconds
+            rays = len(chunk[0])
+            start, size = start + rays, _next_chunk(rays, seconds, upper_per_ray)
+    out = np.concatenate(parts) if len(parts) > 1 else parts[0]
     return MarchResult(
-        xyz,
-        per_lane(tr),
-        samples,
-        max(wall - compile_s, 0.0),
-        device_name(kind),
-        per_lane(depth),
-        order[2],
+        out[:, :3], out[:, 3], samples, march_s, device_name(kind), out[:, 4], order[2]
     )
 
 
