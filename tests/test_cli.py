@@ -125,7 +125,7 @@ def test_render_refuses_to_overwrite_before_rendering(npy, tmp_path):
         (
             lambda d: (d / "bad.npy").write_bytes(b"not numpy"),
             ["bad.npy"],
-            "bad.npy: not a readable",
+            "bad.npy: not a NumPy .npy array",
         ),
         (
             lambda d: np.savez(d / "x.npz", foo=np.ones((2, 2, 2))),

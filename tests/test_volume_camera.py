@@ -75,7 +75,7 @@ def test_values_below_cutoff_may_be_negative_and_become_vacuum():
         ({"eye": (0, 0, 1), "target": (0, 0, 1)}, "eye and target coincide"),
         ({"eye": (0, 2, 0), "target": (0, 0, 0)}, "parallel to the view direction"),
         ({"eye": (0, 0, 1), "up": (0, 0, 0)}, "parallel to the view direction"),
-        ({"eye": (0, 0, 1), "fov_deg": 180.0}, r"fov_deg must be in \(0, 180\)"),
+        ({"eye": (0, 0, 1), "fov_deg": 180.0}, r"fov_deg must be in \[0.01, 180\)"),
         ({"eye": (0, 0, 1), "fov_deg": -3}, "fov_deg"),
         ({"eye": (0, np.nan, 1)}, "camera eye must be finite"),
         ({"eye": (0, 1)}, "camera eye must be 3 numbers"),

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from incandescent.budget import Limits
 from incandescent.camera import Camera
 from incandescent.imaging import DisplaySettings, auto_exposure_scale
 from incandescent.io.output import display_pixels
@@ -63,6 +64,7 @@ def render_video(
     progress: bool = True,
     fps: float = 25.0,
     frame_input: Callable[[int], str] | None = None,
+    limits: Limits | None = None,
 ) -> AnimationSummary:
     """Render frames 0 … n_frames − 1 of ``volume_at`` to ``output`` (.mp4, .gif or a folder),
     seen by ``camera`` — one camera, or a path ``frame ↦ Camera`` (``incandescent.camera.paths``).
@@ -72,6 +74,7 @@ def render_video(
     display settings and the frame's camera, into the key each frame is recorded under
     (:func:`frame_key`): a frame on disk is reused only when its key matches, and ``overwrite``
     renders every frame again. The backend is not part of the key (backends agree to 1e-4).
+    ``limits`` bound each frame's render (:mod:`incandescent.budget`).
     """
     camera_at = camera if callable(camera) else (lambda _: camera)
     describe = frame_input or (lambda _: "")
@@ -84,7 +87,7 @@ def render_video(
 
     def render_frame(item: Any) -> np.ndarray:
         volume, cam = item
-        return display_pixels(render(volume, cam, settings, backend=backend), display)
+        return display_pixels(render(volume, cam, settings, backend, limits), display)
 
     return animate(
         frame,

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
 from incandescent.config import GridNames, VolumeSection
 from incandescent.imaging import DisplaySettings, to_display
@@ -20,6 +21,7 @@ __all__ = [
     "Camera",
     "DisplaySettings",
     "HDRImage",
+    "Limits",
     "Remap",
     "RenderSettings",
     "Volume",
@@ -65,9 +67,12 @@ def _grid_name(role: str, names: dict[str, str], available: tuple[str, ...], req
     return resolve_grid_name(role, available, required=required)
 
 
-def volume_from_section(spec: VolumeSection, remap: Remap) -> Volume:
-    """The Volume a scene's ``[volume]`` section describes: file, grid roles, preset, remap."""
-    source = open_grids(spec.path, spec.axes)
+def volume_from_section(
+    spec: VolumeSection, remap: Remap, limits: Limits | None = None
+) -> Volume:
+    """The Volume a scene's ``[volume]`` section describes: file, grid roles, preset, remap.
+    NumPy grids are checked against ``limits`` from their headers before they are read."""
+    source = open_grids(spec.path, spec.axes, limits)
     names = spec.grids.given()
     core_roles = PRESET_ROLES if spec.preset else ("temperature",)
     try:

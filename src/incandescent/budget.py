@@ -62,6 +62,7 @@ class Limits:
 
     def check_memory(self, need_bytes: float, what: str) -> None:
         """Refuse ``what`` when it needs more memory than the limit."""
+        limit: float
         if self.max_memory_bytes is None:
             limit, source = available_memory_bytes(), "available on this machine"
         else:

@@ -2,17 +2,20 @@
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import logging
+import signal
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from incandescent import __version__
 
@@ -31,9 +34,56 @@ COLOURED_FLAMES = ("sodium", "lithium", "strontium", "copper", "barium")
 DEMOS = ("plume", "sparse", "sphere", "plate", *COLOURED_FLAMES, "sooty", "clean")
 
 
+#: Exit status after Ctrl-C (SIGINT) or SIGTERM: 128 + SIGINT, as shells report it.
+EXIT_INTERRUPTED = 130
+
+
+class _Failed(Exception):
+    """Raised by _fail inside a guarded block: the message is printed, exit status 2."""
+
+
 def _fail(message: str) -> typer.Exit:
-    console.print(f"[bold red]error:[/] {message}", highlight=False)
+    """Print ``message`` as one error (no markup interpreted, no wrapping); exit status 2."""
+    console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
     return typer.Exit(code=2)
+
+
+def _say(message: str) -> None:
+    """Print ``message`` verbatim (paths may hold [brackets]) without wrapping."""
+    console.print(message, highlight=False, markup=False, soft_wrap=True)
+
+
+@contextlib.contextmanager
+def _guarded() -> Iterator[None]:
+    """Turn every expected failure of a command into one line and exit status 2, and Ctrl-C or
+    SIGTERM into exit status 130; outputs are atomic, so an interrupted command leaves none
+    half-written (an animation keeps its finished frames)."""
+    try:
+        yield
+    except typer.Exit:  # a RuntimeError subclass: already reported
+        raise
+    except KeyboardInterrupt:
+        _say("interrupted: no output was left half-written")
+        raise typer.Exit(code=EXIT_INTERRUPTED) from None
+    except MemoryError:
+        raise _fail("out of memory; make the input, image or step smaller") from None
+    except (ValueError, TypeError, OSError, RuntimeError) as error:
+        raise _fail(str(error) or type(error).__name__) from None
+
+
+def _terminate(signum, frame) -> None:
+    raise KeyboardInterrupt  # so that cleanups run and temporary files go
+
+
+def _limits(max_memory: float | None, max_samples: float | None):
+    from incandescent.budget import DEFAULT_MAX_SAMPLES, GIB, Limits
+
+    memory = None if max_memory is None else max_memory * GIB
+    return Limits(memory, DEFAULT_MAX_SAMPLES if max_samples is None else max_samples)
+
+
+MAX_MEMORY_HELP = "Refuse work estimated to need more memory, GiB [the memory available now]."
+MAX_SAMPLES_HELP = "Refuse renders estimated to take more ray-march samples [1e11]."
 
 
 def _vector(text: str | None, name: str) -> tuple[float, float, float] | None:
@@ -56,6 +106,8 @@ def main(
     ),
 ) -> None:
     logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, format="%(message)s")
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
+        signal.signal(signal.SIGTERM, _terminate)
 
 
 @app.command()
@@ -122,29 +174,32 @@ def render(
     line_table: Path = typer.Option(None, help="Species line table (.csv/.toml) [shipped]."),
     stats: Path = typer.Option(None, help="Write render statistics (JSON) to this file."),
     overwrite: bool = typer.Option(None, "--overwrite", help="Replace existing output files."),
+    max_memory: float = typer.Option(None, help=MAX_MEMORY_HELP),
+    max_samples: float = typer.Option(None, help=MAX_SAMPLES_HELP),
 ) -> None:
     """Render a volume file, or a scene file, to an image."""
     from incandescent import api
+    from incandescent.io.atomic import all_or_nothing
 
     flags = dict(locals())
-    try:
+    with _guarded():
+        limits = _limits(max_memory, max_samples)
         scene = _scene(source, _overrides(flags))
-        volume = api.volume_from_section(scene.volume, scene.remap())
-        if sodium is not None:
-            volume = volume.with_sodium(sodium)
         out = scene.output
         if out.path is None:
             raise ValueError("no output: give -o OUT.exr|.png or [output] path in the scene file")
-        _check_outputs([out.path, out.stats], out.overwrite)
+        _check_outputs(out.path, out.stats, out.overwrite)
+        volume = api.volume_from_section(scene.volume, scene.remap(), limits)
+        if sodium is not None:
+            volume = volume.with_sodium(sodium)
         start = time.perf_counter()
-        image = api.render(volume, scene.camera_for(volume), scene.render_settings(), out.backend)
-        display = scene.display_settings()
-        written = [api.save_image(image, out.path, display, overwrite=out.overwrite)]
-        if out.stats is not None:
-            stats_data = _stats(image, start)
-            written.append(api.write_json(out.stats, stats_data, overwrite=out.overwrite))
-    except (ValueError, TypeError, FileNotFoundError, FileExistsError, RuntimeError) as error:
-        raise _fail(str(error)) from None
+        camera, settings = scene.camera_for(volume), scene.render_settings()
+        image = api.render(volume, camera, settings, out.backend, limits)
+        with all_or_nothing():  # the image and its stats, or neither
+            written = [api.save_image(image, out.path, scene.display_settings(), out.overwrite)]
+            if out.stats is not None:
+                stats_data = _stats(image, start)
+                written.append(api.write_json(out.stats, stats_data, overwrite=out.overwrite))
     _summary(image, written)
 
 
@@ -234,13 +289,19 @@ def _overrides(f: dict) -> dict:
     }
 
 
-def _check_outputs(paths: list[Path | None], overwrite: bool) -> None:
-    """Fail before rendering, not after, when an output exists or its folder is missing."""
-    for path in filter(None, paths):
-        if path.exists() and not overwrite:
-            raise FileExistsError(f"{path} exists; pass --overwrite to replace it")
-        if not path.parent.is_dir():
-            raise FileNotFoundError(f"{path}: folder {path.parent} does not exist")
+def _check_outputs(image: Path, stats: Path | None, overwrite: bool) -> None:
+    """Fail before rendering, not after: unsupported suffix, existing file without --overwrite,
+    missing or read-only folder, a folder or device in the way (``io.atomic.check_output``)."""
+    from incandescent.io.atomic import check_output
+    from incandescent.io.output import IMAGE_SUFFIXES
+
+    try:
+        target = check_output(image, overwrite, IMAGE_SUFFIXES, "image")
+        if stats is not None:
+            if check_output(stats, overwrite, (".json",), "stats") == target:
+                raise ValueError(f"--stats {stats} is the image output itself; give another file")
+    except FileExistsError as error:
+        raise FileExistsError(str(error).replace("overwrite=True", "--overwrite")) from None
 
 
 def _stats(image, start: float) -> dict:
@@ -260,14 +321,13 @@ def _stats(image, start: float) -> dict:
 
 def _summary(image, written: list[Path]) -> None:
     meta = image.metadata
-    console.print(
+    _say(
         f"rendered {image.width}×{image.height} on {meta['backend']} ({meta['device']}): "
         f"{meta['samples']:,} samples in {meta['seconds'] * 1e3:.1f} ms; "
-        f"absorption {meta['absorption']}",
-        highlight=False,
+        f"absorption {meta['absorption']}"
     )
     for path in written:
-        console.print(f"  wrote {path}", highlight=False)
+        _say(f"  wrote {path}")
 
 
 def _coloured_flame(name: str, n: int) -> Volume:
@@ -289,8 +349,22 @@ def _demo_volume(name: str, size: int | None) -> Volume:
     }
     for flame in COLOURED_FLAMES:
         makers[flame] = functools.partial(_coloured_flame, flame)
-    default_size = {"plume": 128, "sparse": 128, "sphere": 64}.get(name, 96)
-    return makers[name](size or default_size)
+    return makers[name](size or DEMO_SIZES.get(name, 96))
+
+
+#: Default grid sizes of the demos (others: 96); ``--size`` may be MIN_DEMO_SIZE or more.
+DEMO_SIZES = {"plume": 128, "sparse": 128, "sphere": 64}
+MIN_DEMO_SIZE = 8
+#: Peak bytes per voxel of building a demo scene (float64 NumPy fields, then the Volume).
+DEMO_BYTES_PER_VOXEL = 64
+
+
+def _check_demo_size(size: int | None, limits) -> None:
+    if size is None:
+        return
+    if size < MIN_DEMO_SIZE:
+        raise ValueError(f"--size must be >= {MIN_DEMO_SIZE} voxels; got {size}")
+    limits.check_memory(float(size) ** 3 * DEMO_BYTES_PER_VOXEL, f"a {size}³ demo scene")
 
 
 @app.command()
@@ -309,11 +383,16 @@ def demo(
     frames: int = typer.Option(250, help="plate: number of frames."),
     brightness: str = typer.Option("physical", help="physical | paper (the 2011 method)."),
     backend: str = typer.Option("auto", help="auto | cpu | cuda | reference."),
-    overwrite: bool = typer.Option(False, help="Replace an existing output file."),
+    overwrite: bool = typer.Option(
+        False, help="Replace an existing output (plate: and render every frame again)."
+    ),
+    max_memory: float = typer.Option(None, help=MAX_MEMORY_HELP),
+    max_samples: float = typer.Option(None, help=MAX_SAMPLES_HELP),
 ) -> None:
     """Render a built-in scene: plume, sparse, the paper's sphere, or the paper's plate video.
 
-    The plate video resumes: frames already in its frame folder are not rendered again.
+    The plate video resumes: frames already in its frame folder, made with the same settings,
+    are not rendered again.
     """
     from incandescent import api
 
@@ -321,7 +400,8 @@ def demo(
         raise _fail(f"unknown demo {name!r}; expected one of: {', '.join(DEMOS)}")
     video = name == "plate"
     output = output or Path(f"{name}.mp4" if video else f"{name}.png")
-    try:
+    with _guarded():
+        limits = _limits(max_memory, max_samples)
         settings = api.RenderSettings(
             width=width or (320 if video else 512),
             height=height or (240 if video else 512),
@@ -330,7 +410,8 @@ def demo(
         if video:
             _demo_plate(output, settings, frames, backend, overwrite)
             return
-        _check_outputs([output], overwrite)
+        _check_outputs(output, None, overwrite)
+        _check_demo_size(size, limits)
         with console.status(f"building the {name} scene…"):
             volume = _demo_volume(name, size)
         display, camera = None, None
@@ -339,10 +420,8 @@ def demo(
 
             display, camera = api.DisplaySettings(gamut="clip"), flame_camera()
         with console.status(f"rendering {settings.width}×{settings.height}…"):
-            image = api.render(volume, camera, settings, backend=backend)
+            image = api.render(volume, camera, settings, backend, limits)
         written = [api.save_image(image, output, display, overwrite=overwrite)]
-    except (ValueError, TypeError, FileNotFoundError, FileExistsError, RuntimeError) as error:
-        raise _fail(str(error)) from None
     _summary(image, written)
 
 
@@ -350,10 +429,12 @@ def _demo_plate(output: Path, settings, frames: int, backend: str, overwrite: bo
     from incandescent.paper.demos import render_plate_video
     from incandescent.paper.scenes import PlateScene
 
+    if frames < 1:
+        raise ValueError(f"--frames must be >= 1; got {frames}")
     scene = PlateScene(n_frames=frames)
     start = time.perf_counter()
     render_plate_video(output, settings, scene, backend=backend, overwrite=overwrite)
-    console.print(f"plate: {frames} frames in {time.perf_counter() - start:.1f} s", highlight=False)
+    _say(f"plate: {frames} frames in {time.perf_counter() - start:.1f} s")
 
 
 @app.command()
@@ -368,24 +449,25 @@ def info(
     from incandescent.io.volumes import describe
     from incandescent.volume.presets import kelvin_warning
 
-    try:
+    with _guarded():
+        if path.suffix.lower() in SCENE_SUFFIXES:  # a scene: describe the volume file it names
+            spec = _scene(path, {}).volume
+            _say(f"{path}: a scene file; its volume is {spec.path}")
+            path, axes = spec.path, axes or spec.axes
         grids = describe(path, axes)
-    except (ValueError, FileNotFoundError) as error:
-        raise _fail(str(error)) from None
-    table = Table(title=str(path))
+    table = Table(title=escape(str(path)))
     for column in ("grid", "type", "shape (x, y, z)", "min", "max", "placement"):
         table.add_column(column)
     for g in grids:
-        table.add_row(
-            g.name, g.value_type, str(g.shape), _num(g.value_min), _num(g.value_max), g.placement
-        )
+        cells = (g.name, g.value_type, str(g.shape), _num(g.value_min), _num(g.value_max))
+        table.add_row(*(escape(c) for c in (*cells, g.placement)))
     Console(width=160).print(table)
     for g in grids:
         warning = None
         if g.value_max is not None:
             warning = kelvin_warning(g.name, np.array([g.value_max]))
         for text in filter(None, (warning, g.note and f"{g.name}: {g.note}")):
-            console.print(f"[yellow]note:[/] {text}", highlight=False)
+            console.print(f"[yellow]note:[/] {escape(text)}", highlight=False, soft_wrap=True)
 
 
 def _num(value: float | None) -> str:
@@ -422,19 +504,34 @@ def animate(
         0.0, help="Orbit the camera this many degrees about the vertical axis over the video."
     ),
     backend: str = typer.Option("auto", help="auto | cpu | cuda | reference."),
-    overwrite: bool = typer.Option(False, help="Replace an existing video (frames are reused)."),
+    overwrite: bool = typer.Option(
+        False, help="Replace an existing video and render every frame again."
+    ),
+    max_memory: float = typer.Option(None, help=MAX_MEMORY_HELP),
+    max_samples: float = typer.Option(None, help=MAX_SAMPLES_HELP),
 ) -> None:
     """Render a sequence of volume files to MP4/GIF/PNG frames with one camera and one exposure.
 
     The camera frames the first file's box; the exposure is auto exposure of the middle frame.
-    Re-running resumes: frames already in OUTPUT_frames/ are not rendered again.
+    Re-running resumes: frames already in OUTPUT_frames/ that were made from the same files,
+    settings and version (its manifest.json says) are not rendered again; frames made otherwise
+    are refused unless --overwrite. One run at a time writes an output.
     """
     flags = dict(locals())
     from incandescent import api
-    from incandescent.animation import expand_sequence, fixed_display, key_frame, render_video
+    from incandescent.animation import (
+        expand_sequence,
+        file_identity,
+        fixed_display,
+        key_frame,
+        render_video,
+    )
     from incandescent.camera import paths as paths_module
+    from incandescent.io.video import plan_output
 
-    try:
+    with _guarded():
+        limits = _limits(max_memory, max_samples)
+        plan_output(output, None, overwrite)  # before reading or rendering anything
         paths = expand_sequence(pattern)
         overrides = _overrides(flags)  # the same schema as `render` ...
         overrides.pop("output")  # ... except the output, a video or a folder here
@@ -442,7 +539,10 @@ def animate(
 
         def volume_at(index: int):
             spec = scene.volume.model_copy(update={"path": paths[index]})
-            return api.volume_from_section(spec, scene.remap())
+            return api.volume_from_section(spec, scene.remap(), limits)
+
+        def frame_input(index: int) -> str:
+            return f"{file_identity(paths[index])} {scene.volume!r} {scene.remap()!r}"
 
         first = volume_at(0)
         camera = api.camera_from(
@@ -469,12 +569,10 @@ def animate(
             backend=backend,
             overwrite=overwrite,
             fps=fps,
+            frame_input=frame_input,
+            limits=limits,
         )
-    except (ValueError, TypeError, FileNotFoundError, FileExistsError, RuntimeError) as error:
-        raise _fail(str(error)) from None
-    console.print(
-        f"animate: {len(paths)} frames in {time.perf_counter() - start:.1f} s", highlight=False
-    )
+    _say(f"animate: {len(paths)} frames in {time.perf_counter() - start:.1f} s")
 
 
 @app.command()

@@ -13,6 +13,10 @@ from numpy.typing import ArrayLike, NDArray
 from incandescent import _validate
 
 PROJECTIONS = ("perspective", "orthographic")
+#: Narrowest field of view, degrees: the default camera then stands ~11 000 box radii away, where
+#: float32 ray positions still resolve a voxel; narrower views are refused rather than rendered
+#: empty.
+MIN_FOV_DEG = 0.01
 
 
 def _vec3(value: ArrayLike, name: str) -> tuple[float, float, float]:
@@ -46,8 +50,10 @@ class Camera:
             object.__setattr__(self, name, _vec3(getattr(self, name), name))
         _validate.choice(self.projection, "camera projection", PROJECTIONS)
         fov = _validate.positive_scalar(self.fov_deg, "camera fov_deg")
-        if fov >= 180.0:
-            raise ValueError(f"camera fov_deg must be in (0, 180) degrees; got {fov!r}")
+        if not MIN_FOV_DEG <= fov < 180.0:
+            raise ValueError(
+                f"camera fov_deg must be in [{MIN_FOV_DEG:g}, 180) degrees; got {self.fov_deg!r}"
+            )
         _validate.positive_scalar(self.ortho_height_m, "camera ortho_height_m")
         self.basis()  # rejects degenerate eye/target/up now, not at render time
 
@@ -58,7 +64,8 @@ class Camera:
         """Orthonormal (right, up, forward) vectors; errors on degenerate input."""
         forward = np.subtract(self.target, self.eye)
         distance = np.linalg.norm(forward)
-        if distance < 1e-12:
+        scale = max(float(np.linalg.norm(self.eye)), float(np.linalg.norm(self.target)))
+        if distance <= 1e-12 * scale or distance == 0.0:
             raise ValueError(f"camera eye and target coincide at {self.eye}; they must differ")
         forward = forward / distance
         right = np.cross(forward, self.up)

@@ -94,13 +94,17 @@ def _read(path: Path) -> dict:
         raise SceneError(
             f"{path}: unsupported scene format {path.suffix!r}; expected .toml or .json"
         )
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such scene file")
+    from incandescent.io.volumes import check_input_file
+
+    check_input_file(path, "scene file")
     try:
         text = path.read_bytes().decode("utf-8")
     except UnicodeDecodeError as error:
         raise SceneError(f"{path}: not UTF-8 text ({error})") from None
-    data = _parse_toml(text, path) if suffix == ".toml" else _parse_json(text, path)
+    try:
+        data = _parse_toml(text, path) if suffix == ".toml" else _parse_json(text, path)
+    except RecursionError:
+        raise SceneError(f"{path}: nested too deeply to be a scene (tables in tables)") from None
     if not isinstance(data, dict):
         raise SceneError(f"{path}: a scene is a table of sections; got {type(data).__name__}")
     return data

@@ -25,9 +25,17 @@ def _real_scalar(value: float, name: str) -> float:
     return float(value)
 
 
+#: Largest exposure compensation in stops either way: 2^±100 spans any luminance float32 holds.
+MAX_EV = 100.0
+
+
 def ev_scale(ev: float) -> float:
-    """Exposure compensation multiplier ``2**ev`` (``ev`` in stops; +1 doubles brightness)."""
-    return float(2.0 ** _real_scalar(ev, "exposure_ev"))
+    """Exposure compensation multiplier ``2**ev`` (``ev`` in stops, |ev| ≤ MAX_EV; +1 doubles
+    brightness)."""
+    stops = _real_scalar(ev, "exposure_ev")
+    if abs(stops) > MAX_EV:
+        raise ValueError(f"exposure_ev must be within ±{MAX_EV:g} stops; got {ev!r}")
+    return float(2.0**stops)
 
 
 def saturation_luminance(iso: float, shutter_s: float, f_number: float) -> float:

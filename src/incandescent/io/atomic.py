@@ -194,7 +194,9 @@ def _commit(item: _Staged) -> None:
     try:
         os.link(tmp, target)  # fails atomically if the target appeared meanwhile
     except FileExistsError:
-        raise FileExistsError(f"{target} already exists; pass overwrite=True to replace it") from None
+        raise FileExistsError(
+            f"{target} already exists; pass overwrite=True to replace it"
+        ) from None
     except OSError as error:
         if error.errno in (errno.ENOSPC, errno.EROFS, errno.EACCES):
             raise OutputError(f"cannot write {target}: {error.strerror}") from None

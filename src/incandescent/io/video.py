@@ -452,10 +452,11 @@ class AnimationSummary:
         return "\n".join(lines)
 
 
-def _plan_output(
+def plan_output(
     output: Path, frame_dir: PathLike | None, overwrite: bool
 ) -> tuple[Path, str | None]:
     """(frame folder, video suffix or None); checks the video destination before any rendering."""
+    output = Path(os.fspath(output))
     suffix = output.suffix.lower()
     if output.is_dir() or not suffix:
         if frame_dir is not None and Path(os.fspath(frame_dir)) != output:
@@ -510,7 +511,7 @@ def animate(
     start = time.perf_counter()
     n_frames, fps = _check_count(n_frames), _check_fps(fps)
     output = Path(os.fspath(output))
-    folder, suffix = _plan_output(output, frame_dir, overwrite)
+    folder, suffix = plan_output(output, frame_dir, overwrite)
     folder = _frame_folder(folder)
     with exclusive_lock(folder / LOCK_NAME, str(output)):
         frames, rendered = _render_missing(

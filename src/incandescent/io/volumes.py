@@ -8,6 +8,7 @@ with ``allow_pickle=False``. Axis order is x, y, z (``a[i, j, k]`` is the voxel 
 
 from __future__ import annotations
 
+import os
 import struct
 import zipfile
 import zlib
@@ -17,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
+
+from incandescent.budget import Limits
 
 NUMPY_SUFFIXES = (".npy", ".npz")
 VDB_SUFFIXES = (".vdb", ".nvdb")
@@ -60,15 +63,105 @@ _CORRUPT = (
 )
 
 
-def _np_load(path: Path):
+#: Peak host bytes per voxel of building a Volume from a temperature grid (float64 validation,
+#: remap and κ, float32 results), beyond the array as stored; measured ~37 on a 256³ plume.
+BYTES_PER_VOXEL = 40
+
+
+@dataclass(frozen=True)
+class ArrayHeader:
+    """What a ``.npy`` header (or a ``.npz`` member's) says, read without reading the data."""
+
+    shape: tuple[int, ...]
+    dtype: np.dtype
+    data_bytes: int  # bytes the array's data take as stored
+
+
+def _npy_header(handle, where: str) -> ArrayHeader:
+    """Parse the header at the start of ``handle`` (NEP 1: magic, version, dict literal)."""
+    from numpy.lib import format as npy
+
+    if handle.read(6) != npy.MAGIC_PREFIX:
+        raise ValueError(f"{where}: not a NumPy .npy array (no \\x93NUMPY signature)")
+    version = tuple(handle.read(2))
+    if version not in ((1, 0), (2, 0), (3, 0)):
+        raise ValueError(f"{where}: unsupported .npy format version {version}")
+    read_header = npy.read_array_header_1_0 if version == (1, 0) else npy.read_array_header_2_0
+    try:
+        shape, _, dtype = read_header(handle)
+    except _CORRUPT as error:
+        raise ValueError(f"{where}: corrupt .npy header ({error})") from None
+    if dtype.hasobject or not (dtype.kind in "biuf" and dtype.fields is None):
+        raise ValueError(
+            f"{where}: holds dtype {dtype}, not numbers; only numeric grids are read (Python "
+            "objects are never unpickled)"
+        )
+    return ArrayHeader(tuple(shape), dtype, int(np.prod(shape, dtype=object)) * dtype.itemsize)
+
+
+def _check_stored(header: ArrayHeader, stored_bytes: int, where: str) -> None:
+    """The data must be there: a header may claim any shape."""
+    if stored_bytes < header.data_bytes:
+        raise ValueError(
+            f"{where}: header claims shape {header.shape} {header.dtype} "
+            f"({header.data_bytes:.3g} bytes) but the file holds {stored_bytes:.3g} bytes of "
+            "data; the file is truncated or corrupt"
+        )
+
+
+def _input_bytes(header: ArrayHeader, role_bytes_per_voxel: int = BYTES_PER_VOXEL) -> float:
+    return header.data_bytes + float(np.prod(header.shape, dtype=object)) * role_bytes_per_voxel
+
+
+def _check_npy(path: Path, limits: Limits) -> None:
+    """Header, stored size and memory budget of a ``.npy`` file, before reading its data."""
+    with open(path, "rb") as handle:
+        header = _npy_header(handle, str(path))
+        offset = handle.tell()
+    _check_stored(header, path.stat().st_size - offset, str(path))
+    limits.check_memory(_input_bytes(header), f"reading {path} ({header.shape} {header.dtype})")
+
+
+def _npz_header(archive: zipfile.ZipFile, name: str, where: str) -> ArrayHeader:
+    """A member's header (inflating only its first bytes) checked against its stored size."""
+    member = archive.getinfo(f"{name}.npy")
+    with archive.open(member) as handle:
+        header = _npy_header(handle, where)
+        offset = handle.tell()
+    _check_stored(header, member.file_size - offset, where)
+    return header
+
+
+def _np_load(path: Path, limits: Limits):
+    if path.suffix.lower() == ".npy":
+        _check_npy(path, limits)
     try:
         return np.load(path, allow_pickle=False)
     except _CORRUPT as error:
         raise ValueError(f"{path}: not a readable {path.suffix} file ({error})") from None
 
 
-def _npz_reader(path: Path, data) -> Callable[[Iterable[str]], Grids]:
+def _npz_budget(path: Path, data, names: list[str], limits: Limits) -> None:
+    """Check the headers and memory of the grids to read, before inflating any of them."""
+    total = 0.0
+    for i, name in enumerate(names):
+        if name not in data.files:
+            continue  # reported by the reader with the grids the file has
+        where = f"{path}: grid {name!r}"
+        try:
+            header = _npz_header(data.zip, name, where)
+        except ValueError:
+            raise
+        except _CORRUPT as error:
+            raise ValueError(f"{where} cannot be read ({error})") from None
+        total += _input_bytes(header, BYTES_PER_VOXEL if i == 0 else 12)
+    limits.check_memory(total, f"reading {', '.join(names)} from {path}")
+
+
+def _npz_reader(path: Path, data, limits: Limits) -> Callable[[Iterable[str]], Grids]:
     def read(names: Iterable[str]) -> Grids:
+        names = list(names)
+        _npz_budget(path, data, names, limits)
         out = {}
         for name in names:
             try:
@@ -84,31 +177,56 @@ def _npz_reader(path: Path, data) -> Callable[[Iterable[str]], Grids]:
     return read
 
 
-def open_grids(path: str | Path, axes: str | None = None) -> GridSource:
+def check_input_file(path: Path, what: str = "volume file") -> Path:
+    """A path that names a regular file, or an error saying what it names instead."""
+    import stat
+
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: no such {what}") from None
+    except OSError as error:
+        raise ValueError(f"{path}: cannot read it ({error.strerror})") from None
+    if stat.S_ISDIR(mode):
+        raise IsADirectoryError(f"{path}: is a folder, not a {what}")
+    if not stat.S_ISREG(mode):
+        kind = "FIFO (named pipe)" if stat.S_ISFIFO(mode) else "device or socket"
+        raise ValueError(f"{path}: is a {kind}, not a regular file; expected a {what}")
+    return path
+
+
+def open_grids(
+    path: str | Path, axes: str | None = None, limits: Limits | None = None
+) -> GridSource:
     """Open a volume file (errors name the file and the problem).
 
     ``axes``: the order of the stored array axes (e.g. "zyx") for files that do not say it
-    (HDF5/NetCDF without axis metadata, .npy/.npz); arrays are returned in x, y, z order."""
+    (HDF5/NetCDF without axis metadata, .npy/.npz); arrays are returned in x, y, z order.
+    ``limits``: NumPy grids are checked against them from their headers before their data are
+    read (default: the memory available now)."""
     path = Path(path)
+    limits = limits or Limits()
     suffix = path.suffix.lower()
+    if os.path.lexists(path):
+        check_input_file(path)
     if suffix not in SUFFIXES:
+        got = repr(path.suffix) if path.suffix else "no suffix"
         raise ValueError(
-            f"{path}: unsupported volume format {path.suffix!r}; expected one of "
+            f"{path}: unsupported volume format ({got}); expected one of "
             f"{', '.join(SUFFIXES)} (or a .toml/.json scene file)"
         )
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such volume file")
+    check_input_file(path)
     if suffix in VDB_SUFFIXES:
         return _vdb_source(path)
     if suffix in SCIENCE_SUFFIXES:
         from incandescent.io.scientific import open_scientific
 
         return open_scientific(path, axes)
-    data = _np_load(path)
+    data = _np_load(path, limits)
     if isinstance(data, np.ndarray):
         source = GridSource(path, ("temperature",), _npy_reader(path, data))
     else:
-        source = GridSource(path, tuple(data.files), _npz_reader(path, data))
+        source = GridSource(path, tuple(data.files), _npz_reader(path, data, limits))
     return _with_axes(source, axes)
 
 

@@ -18,8 +18,10 @@ PAPER_MIN_K = 800.0
 
 
 def _positive_int(value: int, name: str, maximum: int = 1 << 15) -> None:
-    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= maximum:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise ValueError(f"{name} must be an integer in 1..{maximum}; got {value!r}")
+    if not 1 <= value <= maximum:
+        raise ValueError(f"{name} must be an integer in 1..{maximum}; got {int(value)}")
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,10 @@ class RenderSettings:
     soot_alpha: float = 1.0
 
     def __post_init__(self) -> None:
+        for name in ("width", "height", "supersample", "macrocell_voxels", "seed", "spectral_bins"):
+            value = getattr(self, name)
+            if isinstance(value, np.integer):  # NumPy integers are integers: store plain ints
+                object.__setattr__(self, name, int(value))
         _positive_int(self.width, "width")
         _positive_int(self.height, "height")
         _positive_int(self.supersample, "supersample", 16)

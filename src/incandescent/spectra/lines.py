@@ -136,7 +136,16 @@ def load_lines(path: str | Path | None = None) -> LineTable:
     suffix = p.suffix.lower()
     if suffix not in (".csv", ".toml"):
         raise ValueError(f"{p}: unsupported line table format {p.suffix!r}; expected .csv or .toml")
-    text = p.read_text("utf-8")
+    from incandescent.io.volumes import check_input_file
+
+    check_input_file(p, "line table")
+    try:
+        text = p.read_text("utf-8")
+    except UnicodeDecodeError as error:
+        raise ValueError(
+            f"{p}: not a UTF-8 text line table (byte {error.start} is "
+            f"{error.object[error.start]:#04x}); expected .csv or .toml text"
+        ) from None
     records = _csv_records(text, str(p)) if suffix == ".csv" else _toml_records(text, str(p))
     return _table_from_records(str(p), records)
 

@@ -232,10 +232,18 @@ def _check_ceiling(temp: NDArray, remap: Remap, source: str) -> None:
         )
 
 
+#: Voxel sides a Volume accepts, m: a nanometre to a thousand kilometres.
+VOXEL_SIZE_RANGE_M = (1e-9, 1e6)
+
+
 def _voxel_size(voxel_size_m: float | None, shape: tuple[int, ...]) -> float:
     if voxel_size_m is None:
         return 1.0 / max(shape)
-    return _validate.positive_scalar(voxel_size_m, "voxel_size_m")
+    size = _validate.positive_scalar(voxel_size_m, "voxel_size_m")
+    low, high = VOXEL_SIZE_RANGE_M
+    if not low <= size <= high:
+        raise ValueError(f"voxel_size_m must be in [{low:g}, {high:g}] m; got {voxel_size_m!r}")
+    return size
 
 
 def _origin(origin_m: ArrayLike | None, shape: tuple[int, ...], voxel: float) -> tuple:
