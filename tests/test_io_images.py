@@ -83,7 +83,7 @@ def test_exr_round_trip_values_metadata_extra(tmp_path):
 def test_exr_refuses_overwrite_then_allows(tmp_path):
     path = tmp_path / "a.exr"
     write_exr(path, np.zeros((2, 2, 3)))
-    with pytest.raises(FileExistsError, match=r"a\.exr already exists; pass overwrite=True"):
+    with pytest.raises(FileExistsError, match=r"a\.exr already exists; pass --overwrite"):
         write_exr(path, np.ones((2, 2, 3)))
     assert read_exr(path)[0].max() == 0.0
     write_exr(path, np.ones((2, 2, 3)), overwrite=True)
@@ -213,7 +213,7 @@ def test_png_refuses_overwrite(tmp_path):
     path = tmp_path / "c.png"
     write_png(path, np.zeros((1, 1, 3), np.uint8))
     before = path.read_bytes()
-    with pytest.raises(FileExistsError, match=r"c\.png already exists; pass overwrite=True"):
+    with pytest.raises(FileExistsError, match=r"c\.png already exists; pass --overwrite"):
         write_png(path, np.full((1, 1, 3), 255, np.uint8))
     assert path.read_bytes() == before
     write_png(path, np.full((1, 1, 3), 255, np.uint8), overwrite=True)

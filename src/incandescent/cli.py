@@ -71,6 +71,25 @@ def _guarded() -> Iterator[None]:
         raise _fail(str(error) or type(error).__name__) from None
 
 
+@contextlib.contextmanager
+def _render_progress() -> Iterator[Callable[[float], None]]:
+    """A transient progress bar on a terminal (nothing elsewhere); yields ``report(fraction)``."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    bar = Progress(
+        TextColumn("rendering"),
+        BarColumn(),
+        TextColumn("{task.percentage:>3.0f} %"),
+        TimeRemainingColumn(),
+        console=console,
+        transient=True,
+        disable=not console.is_terminal,
+    )
+    task = bar.add_task("render", total=1.0)
+    with bar:
+        yield lambda fraction: bar.update(task, completed=fraction)
+
+
 def _terminate(signum, frame) -> None:
     raise KeyboardInterrupt  # so that cleanups run and temporary files go
 
@@ -194,7 +213,8 @@ def render(
             volume = volume.with_sodium(sodium)
         start = time.perf_counter()
         camera, settings = scene.camera_for(volume), scene.render_settings()
-        image = api.render(volume, camera, settings, out.backend, limits)
+        with _render_progress() as progress:
+            image = api.render(volume, camera, settings, out.backend, limits, progress)
         with all_or_nothing():  # the image and its stats, or neither
             written = [api.save_image(image, out.path, scene.display_settings(), out.overwrite)]
             if out.stats is not None:
@@ -295,13 +315,10 @@ def _check_outputs(image: Path, stats: Path | None, overwrite: bool) -> None:
     from incandescent.io.atomic import check_output
     from incandescent.io.output import IMAGE_SUFFIXES
 
-    try:
-        target = check_output(image, overwrite, IMAGE_SUFFIXES, "image")
-        if stats is not None:
-            if check_output(stats, overwrite, (".json",), "stats") == target:
-                raise ValueError(f"--stats {stats} is the image output itself; give another file")
-    except FileExistsError as error:
-        raise FileExistsError(str(error).replace("overwrite=True", "--overwrite")) from None
+    target = check_output(image, overwrite, IMAGE_SUFFIXES, "image")
+    if stats is not None:
+        if check_output(stats, overwrite, (".json",), "stats") == target:
+            raise ValueError(f"--stats {stats} is the image output itself; give another file")
 
 
 def _stats(image, start: float) -> dict:

@@ -89,7 +89,9 @@ def _check_existing(target: Path, overwrite: bool, shown: Path) -> None:
             "files are ever replaced"
         )
     if not overwrite:
-        raise FileExistsError(f"{shown} already exists; pass overwrite=True to replace it")
+        raise FileExistsError(
+            f"{shown} already exists; pass --overwrite (overwrite=True) to replace it"
+        )
 
 
 def check_output(
@@ -195,13 +197,13 @@ def _commit(item: _Staged) -> None:
         os.link(tmp, target)  # fails atomically if the target appeared meanwhile
     except FileExistsError:
         raise FileExistsError(
-            f"{target} already exists; pass overwrite=True to replace it"
+            f"{target} already exists; pass --overwrite (overwrite=True) to replace it"
         ) from None
     except OSError as error:
         if error.errno in (errno.ENOSPC, errno.EROFS, errno.EACCES):
             raise OutputError(f"cannot write {target}: {error.strerror}") from None
         if target.exists():  # a file system without hard links: check, then rename
-            raise FileExistsError(f"{target} already exists; pass overwrite=True") from None
+            raise FileExistsError(f"{target} exists; pass --overwrite (overwrite=True)") from None
         os.replace(tmp, target)
         return
     tmp.unlink()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import platform
+from collections.abc import Callable
 
 import numpy as np
 
@@ -97,13 +98,15 @@ def render(
     settings: RenderSettings | None = None,
     backend: str | None = "auto",
     limits: Limits | None = None,
+    progress: Callable[[float], None] | None = None,
 ) -> HDRImage:
     """Render ``volume`` seen by ``camera`` (default: a three-quarter view framing the gas).
 
     Returns absolute XYZ (Y in cd/m²) with metadata: backend, device, samples, seconds, settings.
     The render is estimated first and refused (:class:`~incandescent.budget.BudgetError`) when
     it exceeds ``limits`` (default: the memory available now and 1e11 samples). A Ctrl-C during
-    the march is honoured within about a second (the fast backends march in chunks of rays).
+    the march is honoured within about a second (the fast backends march in chunks of rays,
+    calling ``progress(fraction of rays done)`` after each).
     """
     _check_types(volume, camera, settings)
     settings = settings or RenderSettings()
@@ -111,7 +114,7 @@ def render(
     name = resolve_backend(backend)
     check_budget(volume, settings, name, limits or Limits())
     inputs = _march_inputs(volume, camera, settings, name)
-    result = run_march(inputs, name)
+    result = run_march(inputs, name, progress)
     return _assemble(inputs, result, name, camera)
 
 

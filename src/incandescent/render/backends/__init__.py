@@ -50,12 +50,13 @@ def resolve_backend(name: str | None = "auto") -> str:
     return requested
 
 
-def run_march(inputs: MarchInputs, backend: str) -> MarchResult:
-    """March with a resolved backend name."""
+def run_march(inputs: MarchInputs, backend: str, progress=None) -> MarchResult:
+    """March with a resolved backend name; ``progress(fraction)`` is called as rays finish (the
+    fast backends, between chunks of rays)."""
     if backend == "reference":
         from incandescent.render.backends import reference
 
         return reference.march(inputs)
     from incandescent.render.backends import march
 
-    return march.march(inputs, backend)
+    return march.march(inputs, backend, progress)

@@ -501,9 +501,9 @@ def _march_chunk(inputs: MarchInputs, m, K: _Kernel, order) -> tuple[list[np.nda
     return columns, int(np.asarray(n, dtype=np.uint64).sum()), compile_s
 
 
-def march(inputs: MarchInputs, kind: str) -> MarchResult:
+def march(inputs: MarchInputs, kind: str, progress=None) -> MarchResult:
     """Run the megakernel on backend ``kind`` ("cpu" or "cuda"), in chunks of rays (a Ctrl-C
-    raises KeyboardInterrupt between chunks, within about CHUNK_SECONDS)."""
+    raises KeyboardInterrupt between chunks); ``progress(fraction of rays done)`` after each."""
     m = array_module(kind)
     dr = drjit_module()
     spec = inputs.ray_spec
@@ -523,6 +523,8 @@ def march(inputs: MarchInputs, kind: str) -> MarchResult:
             samples, march_s = samples + n, march_s + seconds
             rays = len(chunk[0])
             start, size = start + rays, _next_chunk(rays, seconds, upper_per_ray)
+            if progress is not None:
+                progress(start / spec.n_total)
     out = np.concatenate(parts) if len(parts) > 1 else parts[0]
     return MarchResult(
         out[:, :3], out[:, 3], samples, march_s, device_name(kind), out[:, 4], order[2]
