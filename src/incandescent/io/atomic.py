@@ -79,7 +79,7 @@ def _check_parent(target: Path) -> None:
 def _check_existing(target: Path, overwrite: bool, shown: Path) -> None:
     try:
         mode = os.stat(target).st_mode
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):  # the folder check says what is wrong
         return
     if stat.S_ISDIR(mode):
         raise IsADirectoryError(f"cannot write {shown}: it is a folder")

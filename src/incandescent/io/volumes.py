@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import struct
+import tokenize
 import zipfile
 import zlib
 from collections.abc import Callable, Iterable, Mapping
@@ -60,6 +61,7 @@ _CORRUPT = (
     SyntaxError,
     NotImplementedError,
     RuntimeError,  # zipfile: "File ... is encrypted, password required" (a flipped flag bit)
+    tokenize.TokenError,  # a .npy header dict literal cut short (found by fuzzing)
 )
 
 
