@@ -97,6 +97,9 @@ def _terminate(signum, frame) -> None:
 def _limits(max_memory: float | None, max_samples: float | None):
     from incandescent.budget import DEFAULT_MAX_SAMPLES, GIB, Limits
 
+    for flag, value in (("--max-memory", max_memory), ("--max-samples", max_samples)):
+        if value is not None and not value > 0:  # also refuses nan
+            raise ValueError(f"{flag} must be a number > 0; got {value}")
     memory = None if max_memory is None else max_memory * GIB
     return Limits(memory, DEFAULT_MAX_SAMPLES if max_samples is None else max_samples)
 
@@ -568,6 +571,7 @@ def animate(
         settings = api.RenderSettings(
             width=width, height=height, step_voxels=step, brightness=brightness
         )
+        path = paths_module.orbit(camera, len(paths), orbit) if orbit else camera
         display = fixed_display(
             volume_at(key_frame(paths)),
             camera,
@@ -580,7 +584,7 @@ def animate(
             volume_at,
             len(paths),
             output,
-            paths_module.orbit(camera, len(paths), orbit) if orbit else camera,
+            path,
             settings,
             display,
             backend=backend,

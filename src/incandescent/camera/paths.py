@@ -19,6 +19,8 @@ def orbit(camera: Camera, n_frames: int, degrees: float = 360.0) -> CameraPath:
     over ``n_frames`` frames (frame 0 is ``camera``; a full turn does not repeat frame 0)."""
     if n_frames < 1:
         raise ValueError(f"an orbit needs at least one frame; got {n_frames}")
+    if not np.isfinite(degrees):
+        raise ValueError(f"orbit degrees must be a finite number; got {degrees!r}")
     target = np.asarray(camera.target)
     offset = np.asarray(camera.eye) - target
     step = np.radians(degrees) / (n_frames if abs(degrees) >= 360.0 else max(n_frames - 1, 1))
