@@ -464,6 +464,7 @@ def plan_output(
                 f"output {output} is a folder, so the frames go there; do not also pass "
                 f"frame_dir={frame_dir}"
             )
+        _probe_lock(output, output)
         return output, None
     if suffix not in VIDEO_SUFFIXES:
         raise ValueError(
@@ -472,7 +473,16 @@ def plan_output(
         )
     check_output(output, overwrite, VIDEO_SUFFIXES, "animation")  # now, not after hours
     folder = output.with_name(f"{output.stem}_frames") if frame_dir is None else frame_dir
+    _probe_lock(Path(os.fspath(folder)), output)
     return Path(os.fspath(folder)), suffix
+
+
+def _probe_lock(folder: Path, output: Path) -> None:
+    """Fail now, before any reading or rendering, if another run holds the folder's lock (the
+    lock itself is taken later, by :func:`animate`)."""
+    if (folder / LOCK_NAME).is_file():
+        with exclusive_lock(folder / LOCK_NAME, str(output)):
+            pass
 
 
 def _assemble(frames: list[Path], output: Path, suffix: str | None, fps: float, overwrite: bool):
