@@ -1,0 +1,112 @@
+"""Hash every kind of image the renderer makes, to show that a refactor changed no bit.
+
+    python scripts/render_hashes.py --out before.json         # on the old code
+    python scripts/render_hashes.py --compare before.json     # on the new code: exit 1 on change
+
+Each case renders a small image (every emission model and combination the renderer had, the
+demo scenes, both fast and reference backends) and records SHA-256 digests of its XYZ (or
+display RGB), transmittance and depth arrays. Digests depend on the machine (CPU features,
+LLVM version), so compare runs made on one machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+import incandescent as inc
+from incandescent import scenes
+
+SIZE = {"width": 40, "height": 32}
+
+
+def _digest(image) -> dict[str, str]:
+    arrays = {"values": image.xyz, "transmittance": image.transmittance, "depth": image.depth_m}
+    for name in ("rgb_display", "paper_rgb"):
+        if getattr(image, name, None) is not None:
+            arrays["values"] = getattr(image, name)
+    out = {}
+    for name, values in arrays.items():
+        data = np.ascontiguousarray(values)
+        out[name] = hashlib.sha256(data.tobytes() + str(data.dtype).encode()).hexdigest()[:16]
+    return out
+
+
+def _cases() -> dict[str, Callable[[], tuple]]:
+    plume = scenes.plume(24)
+    temp = scenes.plume_temperature(24)
+    cut = inc.Volume.from_arrays(temp, 3.0, remap=inc.Remap(cutoff_K=900.0))
+    soot = scenes.soot_plume(24)
+    scale = inc.Volume.from_arrays(
+        temp, emission_scale=np.linspace(0, 2, temp.size).reshape(temp.shape)
+    )
+    lines = inc.Volume.from_arrays(temp, species={"Na": 0.02, "Li": np.full(temp.shape, 0.01)})
+    thin = inc.Volume.from_arrays(temp, 0.0, species={"Sr": 0.05})
+    sodium = plume.with_sodium(np.clip((temp - 300.0) / 1700.0, 0.0, 1.0))
+    s = inc.RenderSettings(**SIZE)
+    ortho = inc.Camera(eye=(0, 0.4, 2), target=(0, 0.4, 0), projection="orthographic")
+    return {
+        "grey": lambda: (plume, None, s),
+        "grey ss2": lambda: (plume, None, s.replace(supersample=2)),
+        "grey no skip": lambda: (plume, None, s.replace(skip_empty=False)),
+        "grey ortho": lambda: (plume, ortho, s),
+        "cutoff": lambda: (cut, None, s),
+        "soot graded": lambda: (soot, None, s),
+        "emission scale": lambda: (scale, None, s),
+        "spectral 4": lambda: (soot, None, s.replace(spectral_bins=4, soot_alpha=1.39)),
+        "spectral 1": lambda: (plume, None, s.replace(spectral_bins=1)),
+        "species": lambda: (lines, None, s),
+        "species thin": lambda: (thin, None, s),
+        "paper": lambda: (plume, None, s.replace(brightness="paper")),
+        "paper sodium": lambda: (sodium, None, s.replace(brightness="paper")),
+        "demo sparse": lambda: (scenes.sparse_flame(48), None, s),
+    }
+
+
+def _demo_cases() -> dict[str, Callable[[], tuple]]:
+    from incandescent.cli import COLOURED_FLAMES, _demo_volume
+
+    s = inc.RenderSettings(**SIZE)
+    names = ("plume", "sphere", *COLOURED_FLAMES, "sooty", "clean")
+    return {f"demo {n}": (lambda n=n: (_demo_volume(n, 24), None, s)) for n in names}
+
+
+def hashes(backends=("cpu", "reference")) -> dict[str, dict[str, str]]:
+    out = {}
+    for name, make in {**_cases(), **_demo_cases()}.items():
+        volume, camera, settings = make()
+        for backend in backends:
+            if backend == "reference" and settings.supersample > 1:
+                continue
+            image = inc.render(volume, camera, settings, backend)
+            out[f"{name} / {backend}"] = _digest(image)
+    return out
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path)
+    parser.add_argument("--compare", type=Path)
+    args = parser.parse_args()
+    table = hashes()
+    if args.out:
+        args.out.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n")
+        print(f"{len(table)} cases written to {args.out}")
+    if args.compare:
+        before = json.loads(args.compare.read_text())
+        changed = sorted(k for k in before if table.get(k) != before[k])
+        for key in changed:
+            print(f"changed: {key}: {before[key]} -> {table.get(key)}")
+        print(f"{len(before) - len(changed)} of {len(before)} cases bit-identical")
+        return 1 if changed else 0
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
