@@ -7,7 +7,7 @@ Usage::
 
 Scene: the plume of :func:`incandescent.scenes.plume_temperature` (n³, peak 2000 K) with the
 default absorption (κ where T ≥ 500 K) and k species (Na, Li, Sr, Cu, in that order), each a grid
-following the hot gas (:func:`incandescent.species_scenes.hot_gas_weight`, 0 below 500 K). Species
+following the hot gas (:func:`incandescent.scenes.species.hot_gas_weight`, 0 below 500 K). Species
 therefore occupy exactly the voxels that absorb, so empty-space skipping visits the same cells in
 every variant and the difference is the per-sample cost of the species lookups.
 
@@ -31,9 +31,9 @@ import numpy as np
 
 from incandescent import __version__
 from incandescent.benchmark import git_commit
-from incandescent.render import RenderSettings, render
+from incandescent.renderer import RenderSettings, render
 from incandescent.scenes import plume_temperature
-from incandescent.species_scenes import hot_gas_weight
+from incandescent.scenes.species import hot_gas_weight
 from incandescent.volume import Volume
 
 SPECIES = ("Na", "Li", "Sr", "Cu")

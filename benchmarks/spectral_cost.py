@@ -14,7 +14,7 @@ import statistics
 from pathlib import Path
 
 from incandescent import scenes
-from incandescent.render import RenderSettings, render
+from incandescent.renderer import RenderSettings, render
 
 VARIANTS = {"table": 0, "4 bins": 4, "8 bins": 8, "16 bins": 16}
 

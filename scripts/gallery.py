@@ -4,10 +4,10 @@ Usage::
 
     python scripts/gallery.py [--out docs] [--quick] [--backend auto]
 
-Renders the paper's scenes (:mod:`incandescent.paper.scenes`) in both brightness laws —
+Renders the paper's scenes (:mod:`incandescent.scenes.paper`) in both brightness laws —
 ``brightness="paper"`` (Zonenberg & Forrest 2011, §4) and ``brightness="physical"`` — draws the
 blackbody colour strip under both colour models and tabulates the chromaticity shift caused by the
-paper's 380–650 nm truncation (:func:`incandescent.paper.colour.truncation_shift_uv`). Every
+paper's 380–650 nm truncation (:func:`incandescent.spectra.paper2011.truncation_shift_uv`). Every
 number on the page is computed here. ``--quick`` renders tiny images (for the tests). Images and
 the page are written atomically (a temporary file moved into place).
 """
@@ -25,15 +25,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from incandescent import __version__, blackbody_xyz
+from incandescent.animation import plate_camera
 from incandescent.colorimetry import xyz_to_uv_prime
 from incandescent.imaging import DisplaySettings, auto_exposure_scale, lit_percentile, to_display
 from incandescent.io.docpage import PageImages, draw_kelvin_ticks
 from incandescent.io.output import display_pixels
-from incandescent.paper.colour import paper_rgb, paper_spectrum_xyz, truncation_shift_uv
-from incandescent.paper.demos import plate_camera
-from incandescent.paper.scenes import PlateScene, paper_sphere
-from incandescent.render import HDRImage, RenderSettings, render
-from incandescent.render.settings import PAPER_GAIN, PAPER_MIN_K
+from incandescent.renderer import HDRImage, RenderSettings, render
+from incandescent.renderer.settings import PAPER_GAIN, PAPER_MIN_K
+from incandescent.scenes.paper import PlateScene, paper_sphere
+from incandescent.spectra.paper2011 import paper_rgb, paper_spectrum_xyz, truncation_shift_uv
 
 DEFAULT_OUT = Path(__file__).resolve().parent.parent / "docs"
 IMAGE_DIR = "gallery"

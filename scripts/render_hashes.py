@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 import incandescent as inc
-from incandescent import scenes
+from incandescent.scenes import synthetic as scenes
 
 SIZE = {"width": 40, "height": 32}
 
@@ -70,11 +70,11 @@ def _cases() -> dict[str, Callable[[], tuple]]:
 
 
 def _demo_cases() -> dict[str, Callable[[], tuple]]:
-    from incandescent.cli import COLOURED_FLAMES, _demo_volume
+    from incandescent.scenes import COLOURED_FLAMES, SCENES
 
     s = inc.RenderSettings(**SIZE)
     names = ("plume", "sphere", *COLOURED_FLAMES, "sooty", "clean")
-    return {f"demo {n}": (lambda n=n: (_demo_volume(n, 24), None, s)) for n in names}
+    return {f"demo {n}": (lambda n=n: (SCENES[n].build(24), None, s)) for n in names}
 
 
 def hashes(backends=("cpu", "reference")) -> dict[str, dict[str, str]]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from incandescent.render.backends.jit import cuda_problem, llvm_problem
+from incandescent.renderer.backends.jit import cuda_problem, llvm_problem
 
 
 def _backend_param(name: str):

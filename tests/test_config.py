@@ -14,7 +14,7 @@ from incandescent.camera import Camera
 from incandescent.config import Scene, SceneError, load_scene, merge_overrides, scene_from_dict
 from incandescent.config.schema import DisplaySection, RenderSection
 from incandescent.imaging import DisplaySettings
-from incandescent.render import RenderSettings
+from incandescent.renderer import RenderSettings
 from incandescent.volume import Remap, Volume
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"

@@ -279,7 +279,7 @@ def _toml_as_dict() -> dict:
 
 def test_chunked_march_equals_one_launch(monkeypatch):
     """Ctrl-C needs the march in chunks; chunks must not change a single sample."""
-    from incandescent.render.backends import march
+    from incandescent.renderer.backends import march
 
     volume = plume(24)
     settings = inc.RenderSettings(width=48, height=40, supersample=2)

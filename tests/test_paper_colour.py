@@ -2,7 +2,7 @@
 
 The reference below uses only :mod:`math`, the paper's constants, a CMF table typed in from the CIE
 table and Lindbloom's matrix typed in, so it shares no code or data with
-:mod:`incandescent.paper.colour`.
+:mod:`incandescent.spectra.paper2011`.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from incandescent.paper import (
+from incandescent.spectra.paper2011 import (
     PAPER_EXPONENT,
     PAPER_SODIUM_NM,
     PAPER_WAVELENGTHS_NM,

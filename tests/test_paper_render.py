@@ -7,8 +7,8 @@ import pytest
 
 from incandescent.camera import Camera
 from incandescent.io.output import display_pixels
-from incandescent.paper.colour import paper_rgb
-from incandescent.render import RenderSettings, render
+from incandescent.renderer import RenderSettings, render
+from incandescent.spectra.paper2011 import paper_rgb
 from incandescent.volume import Volume
 
 FACE_ON = Camera(eye=(0, 0, 3.0), target=(0, 0, 0), projection="orthographic", ortho_height_m=0.2)

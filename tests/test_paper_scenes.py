@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from incandescent.camera import Camera
-from incandescent.paper.scenes import PlateScene, paper_sphere
-from incandescent.render import RenderSettings, render
+from incandescent.renderer import RenderSettings, render
+from incandescent.scenes.paper import PlateScene, paper_sphere
 
 THRESHOLD_K = 1000.0
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from incandescent.camera import Camera
-from incandescent.render import RenderSettings, render
+from incandescent.renderer import RenderSettings, render
 from incandescent.spectra import blackbody_xyz
 from incandescent.volume import Remap, Volume
 

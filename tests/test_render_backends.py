@@ -7,10 +7,10 @@ import pytest
 
 from incandescent import scenes
 from incandescent.camera import Camera
-from incandescent.render import RenderSettings, render
-from incandescent.render.backends import BackendUnavailable, available_backends, resolve_backend
-from incandescent.render.backends.jit import cuda_problem
-from incandescent.render.backends.march import _packed_medium, _padded, _signed_medium
+from incandescent.renderer import RenderSettings, render
+from incandescent.renderer.backends import BackendUnavailable, available_backends, resolve_backend
+from incandescent.renderer.backends.jit import cuda_problem
+from incandescent.renderer.backends.march import _packed_medium, _padded, _signed_medium
 from incandescent.volume import Remap, Volume, build_macrocells
 from incandescent.volume.macrocells import empty_radius
 
@@ -220,7 +220,7 @@ class _FakeDrJit:
     ],
 )
 def test_llvm_check_names_what_to_install(monkeypatch, fake, expected):
-    from incandescent.render.backends import jit
+    from incandescent.renderer.backends import jit
 
     monkeypatch.setattr(jit, "drjit_module", lambda: fake)
     problem = jit.llvm_problem.__wrapped__()

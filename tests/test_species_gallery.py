@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from incandescent import species_scenes as ss
+from incandescent.scenes import species as ss
 
 SCRIPT = Path(__file__).resolve().parent.parent / "scripts" / "species_gallery.py"
 

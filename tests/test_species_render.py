@@ -7,7 +7,7 @@ import pytest
 
 from incandescent.camera import Camera
 from incandescent.colorimetry import xyz_to_xy
-from incandescent.render import RenderSettings, render
+from incandescent.renderer import RenderSettings, render
 from incandescent.spectra import blackbody_xyz
 from incandescent.spectra.lines import load_lines, species_xyz
 from incandescent.volume import Volume

@@ -22,8 +22,8 @@ from incandescent.io.video import (
     write_gif,
     write_mp4,
 )
-from incandescent.paper.scenes import PlateScene
-from incandescent.render import RenderSettings, render
+from incandescent.renderer import RenderSettings, render
+from incandescent.scenes.paper import PlateScene
 from incandescent.volume import Volume
 
 

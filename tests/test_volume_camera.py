@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from incandescent.camera import Camera, default_camera
-from incandescent.render import RenderSettings, render
+from incandescent.renderer import RenderSettings, render
 from incandescent.volume import Remap, Volume
 
 
@@ -162,7 +162,7 @@ def test_z_up_sources_are_rotated_into_the_y_up_world():
 
 @pytest.mark.parametrize(("width", "height", "s"), [(5, 3, 1), (37, 20, 2), (16, 16, 1)])
 def test_kernel_lane_order_is_a_permutation_of_the_camera_rays(width, height, s):
-    from incandescent.render.rays import lane_order
+    from incandescent.renderer.rays import lane_order
 
     x, y, index = lane_order(width, height, s)
     assert np.array_equal(np.sort(index), np.arange(width * height * s * s))

@@ -15,11 +15,11 @@ from typing import Any
 import numpy as np
 
 from incandescent.budget import Limits
-from incandescent.camera import Camera
+from incandescent.camera import Camera, default_camera
 from incandescent.imaging import DisplaySettings, auto_exposure_scale
 from incandescent.io.output import display_pixels
 from incandescent.io.video import AnimationSummary, animate
-from incandescent.render import RenderSettings, render
+from incandescent.renderer import RenderSettings, render
 from incandescent.volume import Volume
 
 
@@ -107,7 +107,7 @@ def frame_key(
     """A digest of everything that makes a frame's pixels: input, camera, settings, version."""
     import hashlib
 
-    from incandescent import __version__
+    from incandescent._version import __version__
 
     text = "\n".join((__version__, frame_input, repr(camera), repr(settings), repr(display)))
     return hashlib.sha256(text.encode()).hexdigest()
@@ -133,3 +133,43 @@ def expand_sequence(pattern: str) -> list[Path]:
 def key_frame(paths: Sequence[Path]) -> int:
     """The middle frame: a reasonable exposure key for a sequence we know nothing else about."""
     return len(paths) // 2
+
+
+# --- the 2011 paper's plate video ---------------------------------------------------------------
+
+
+def plate_camera(scene) -> Camera:
+    """A fixed three-quarter view of the whole plate box (the same for every frame)."""
+    return default_camera(scene.volume(scene.frame(0)).bounds_m, fov_deg=35.0)
+
+
+def render_plate_video(
+    output: str | Path,
+    settings: RenderSettings,
+    scene=None,
+    backend: str | None = "auto",
+    overwrite: bool = False,
+    progress: bool = True,
+) -> AnimationSummary:
+    """Render the plate sequence to ``output`` (.mp4, .gif, or a folder of PNG frames), resuming
+    from frames already in the frame folder. One exposure for all frames: auto exposure of the
+    frame where the gas holds the most heat."""
+    from incandescent.scenes.paper import PlateScene
+
+    scene = scene or PlateScene()
+    camera = plate_camera(scene)
+    frames = list(scene.frames())
+    hottest = max(range(len(frames)), key=lambda i: scene.excess_heat(frames[i]))
+    display = fixed_display(scene.volume(frames[hottest]), camera, settings, backend)
+    return render_video(
+        lambda i: scene.volume(frames[i]),
+        scene.n_frames,
+        output,
+        camera,
+        settings,
+        display,
+        backend=backend,
+        overwrite=overwrite,
+        progress=progress,
+        frame_input=lambda i: f"{scene!r} frame {i}",
+    )

@@ -13,7 +13,7 @@ from incandescent.config import GridNames, VolumeSection
 from incandescent.imaging import DisplaySettings, to_display
 from incandescent.io.output import save_image, write_json
 from incandescent.io.volumes import open_grids
-from incandescent.render import HDRImage, RenderSettings, render
+from incandescent.renderer import HDRImage, RenderSettings, render
 from incandescent.volume import Remap, Volume
 from incandescent.volume.presets import apply_preset, resolve_grid_name
 

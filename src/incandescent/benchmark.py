@@ -16,17 +16,12 @@ import subprocess
 import time
 from dataclasses import dataclass
 
-from incandescent import __version__, scenes
+from incandescent._version import __version__
 from incandescent.camera import default_camera
-from incandescent.render import RenderSettings, render
-from incandescent.render.backends import available_backends
-from incandescent.render.backends.jit import drjit_module
-
-SCENES = {
-    "plume": ("plume {n}³ at {r}²", lambda n: scenes.plume(n)),
-    "sparse": ("small flame in an empty {n}³ box at {r}²", lambda n: scenes.sparse_flame(n)),
-    "soot": ("plume {n}³ with a graded κ grid at {r}²", lambda n: scenes.soot_plume(n)),
-}
+from incandescent.renderer import RenderSettings, render
+from incandescent.renderer.backends import available_backends
+from incandescent.renderer.backends.jit import drjit_module
+from incandescent.scenes import SCENES
 
 
 @dataclass(frozen=True)
@@ -98,8 +93,8 @@ def _summarise(case: Case, runs: list[dict]) -> dict:
 def _scene_report(
     name: str, size: int, resolution: int, repeat: int, reference: bool, progress
 ) -> dict:
-    label, make = SCENES[name]
-    volume = make(size)
+    scene = SCENES[name]
+    label, volume = scene.label + " at {r}²", scene.build(size)
     cases = _cases(available_backends(), reference)
     runs: dict[str, list[dict]] = {c.name: [] for c in cases}
     for case in cases:  # warm-up: compile kernels, fill caches

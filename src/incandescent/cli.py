@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import functools
 import json
 import logging
 import signal
@@ -17,7 +16,8 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 
-from incandescent import __version__
+from incandescent._version import __version__
+from incandescent.scenes import SCENES
 
 if TYPE_CHECKING:
     from incandescent.volume import Volume
@@ -30,8 +30,8 @@ app = typer.Typer(
 )
 console = Console(stderr=True)
 
-COLOURED_FLAMES = ("sodium", "lithium", "strontium", "copper", "barium")
-DEMOS = ("plume", "sparse", "sphere", "plate", *COLOURED_FLAMES, "sooty", "clean")
+#: The built-in scenes (``incandescent.scenes.SCENES``) and the paper's plate video.
+DEMOS = (*SCENES, "plate")
 
 
 #: Exit status after Ctrl-C (SIGINT) or SIGTERM: 128 + SIGINT, as shells report it.
@@ -350,30 +350,12 @@ def _summary(image, written: list[Path]) -> None:
         _say(f"  wrote {path}")
 
 
-def _coloured_flame(name: str, n: int) -> Volume:
-    from incandescent import species_scenes
-
-    return species_scenes.coloured_flame(name, n)
-
-
 def _demo_volume(name: str, size: int | None) -> Volume:
-    from incandescent import scenes, species_scenes
-    from incandescent.paper.scenes import paper_sphere
-
-    makers: dict[str, Callable[[int], Volume]] = {
-        "plume": scenes.plume,
-        "sparse": scenes.sparse_flame,
-        "sphere": paper_sphere,
-        "sooty": species_scenes.sooty_flame,
-        "clean": species_scenes.clean_flame,
-    }
-    for flame in COLOURED_FLAMES:
-        makers[flame] = functools.partial(_coloured_flame, flame)
-    return makers[name](size or DEMO_SIZES.get(name, 96))
+    scene = SCENES[name]
+    return scene.build(size or scene.default_size)
 
 
-#: Default grid sizes of the demos (others: 96); ``--size`` may be MIN_DEMO_SIZE or more.
-DEMO_SIZES = {"plume": 128, "sparse": 128, "sphere": 64}
+#: Smallest ``--size`` of a demo scene.
 MIN_DEMO_SIZE = 8
 #: Peak bytes per voxel of building a demo scene (float64 NumPy fields, then the Volume).
 DEMO_BYTES_PER_VOXEL = 64
@@ -397,7 +379,7 @@ def demo(
         help="Output: .png/.exr for images (default NAME.png); .mp4, .gif or a folder of PNG "
         "frames for plate (default plate.mp4).",
     ),
-    size: int = typer.Option(None, help="Grid resolution (plume/sparse 128, sphere 64)."),
+    size: int = typer.Option(None, help="Grid resolution (plume/sparse/soot 128, sphere 64, 96)."),
     width: int = typer.Option(None, help="Image width (512; plate 320)."),
     height: int = typer.Option(None, help="Image height (512; plate 240)."),
     frames: int = typer.Option(250, help="plate: number of frames."),
@@ -434,11 +416,8 @@ def demo(
         _check_demo_size(size, limits)
         with console.status(f"building the {name} scene…"):
             volume = _demo_volume(name, size)
-        display, camera = None, None
-        if name in COLOURED_FLAMES + ("sooty", "clean"):  # line colours lie far out of sRGB
-            from incandescent.species_scenes import flame_camera
-
-            display, camera = api.DisplaySettings(gamut="clip"), flame_camera()
+        scene = SCENES[name]
+        display, camera = scene.display, scene.camera and scene.camera()
         with console.status(f"rendering {settings.width}×{settings.height}…"):
             image = api.render(volume, camera, settings, backend, limits)
         written = [api.save_image(image, output, display, overwrite=overwrite)]
@@ -446,8 +425,8 @@ def demo(
 
 
 def _demo_plate(output: Path, settings, frames: int, backend: str, overwrite: bool) -> None:
-    from incandescent.paper.demos import render_plate_video
-    from incandescent.paper.scenes import PlateScene
+    from incandescent.animation import render_plate_video
+    from incandescent.scenes.paper import PlateScene
 
     if frames < 1:
         raise ValueError(f"--frames must be >= 1; got {frames}")

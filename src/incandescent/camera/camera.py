@@ -86,7 +86,7 @@ class Camera:
         Ray order (the canonical ray index every backend uses, e.g. for jitter) is column-major
         with the ``supersample``² sub-pixel rays of a pixel adjacent: ray r belongs to pixel
         column ``r // (height·s²)``, row ``(r // s²) % height``. The Dr.Jit kernels march the
-        same rays in a tiled order (``incandescent.render.rays.lane_order``).
+        same rays in a tiled order (``incandescent.renderer.rays.lane_order``).
         """
         px, py = _film_coordinates(width, height, supersample)
         right, up, forward = self.basis()

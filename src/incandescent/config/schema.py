@@ -1,7 +1,7 @@
 """The scene schema: one pydantic model shared by scene files, the Python API and CLI flags.
 
 Every section forbids unknown keys and is frozen. Values are checked by the objects they build —
-:class:`~incandescent.render.settings.RenderSettings`,
+:class:`~incandescent.renderer.settings.RenderSettings`,
 :class:`~incandescent.imaging.pipeline.DisplaySettings`, :class:`~incandescent.camera.Camera`,
 :class:`~incandescent.volume.grid.Remap` and :class:`~incandescent.volume.grid.Volume` — so the
 rules live in one place; their ``ValueError``/``TypeError`` become pydantic errors located at the
@@ -33,8 +33,8 @@ from pydantic_core import PydanticCustomError
 from incandescent.camera.camera import Camera, default_camera
 from incandescent.colorimetry.rgb_spaces import rgb_space
 from incandescent.imaging.pipeline import DisplaySettings
-from incandescent.render.backends import BACKENDS
-from incandescent.render.settings import RenderSettings
+from incandescent.renderer.backends import BACKENDS
+from incandescent.renderer.settings import RenderSettings
 from incandescent.volume.grid import Remap, Volume
 from incandescent.volume.presets import ROLES, preset_parameters
 
@@ -200,7 +200,7 @@ def _dataclass_default(cls: type, name: str) -> object:
 
 
 class RenderSection(_Section):
-    """The fields of :class:`~incandescent.render.settings.RenderSettings` (same names, defaults
+    """The fields of :class:`~incandescent.renderer.settings.RenderSettings` (same names, defaults
     and rules)."""
 
     width: int = RenderSettings.width

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from incandescent import __version__
+from incandescent._version import __version__
 from incandescent.io.images import write_png
 from incandescent.io.output import write_text
 

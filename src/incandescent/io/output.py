@@ -9,7 +9,7 @@ import numpy as np
 
 from incandescent.imaging import DisplaySettings, to_display
 from incandescent.io.images import atomic_write, write_exr, write_png
-from incandescent.render.film import HDRImage
+from incandescent.renderer.film import HDRImage
 
 IMAGE_SUFFIXES = (".exr", ".png")
 

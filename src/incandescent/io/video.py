@@ -250,7 +250,7 @@ def _read_manifest(frame_dir: Path) -> dict[str, str]:
 
 
 def _write_manifest(frame_dir: Path, keys: dict[str, str]) -> None:
-    from incandescent import __version__
+    from incandescent._version import __version__
 
     data = {"format": 1, "written_by": f"incandescent {__version__}", "frames": keys}
     write_json(frame_dir / MANIFEST_NAME, data, overwrite=True)

@@ -1,8 +1,8 @@
 """The reference backend: a readable float64 NumPy marcher, the ground truth for the others.
 
 All rays advance in lockstep, one segment per iteration (see ``common`` for the step lattice).
-Paper mode (``brightness="paper"``) sums the 2011 paper's colour (``incandescent.paper.colour``)
-along the ray without absorption; the cap at 255 is applied when the image is assembled.
+Paper mode (``brightness="paper"``) sums the 2011 paper's colour (``spectra.paper2011``) along
+the ray without absorption; the cap at 255 is applied when the image is assembled.
 Emission is evaluated *exactly* — the Planck × CMF integral at each sample's temperature — not from
 the table the fast backends use, so parity tests also check the table. No empty-space skipping.
 """
@@ -14,7 +14,7 @@ import time
 import numpy as np
 
 from incandescent.constants import K_M
-from incandescent.render.backends.common import MarchInputs, MarchResult, trilinear
+from incandescent.renderer.backends.common import MarchInputs, MarchResult, trilinear
 from incandescent.spectra.blackbody import blackbody_xyz
 
 
@@ -32,7 +32,7 @@ def _paper_step(inputs, r, p, ds_m, xyz) -> np.ndarray:
     """The 2011 paper: add paper_rgb(T, sodium)·gain per voxel of path where T ≥ paper_min_K.
 
     Returns the mask of rays whose sample contributed."""
-    from incandescent.paper.colour import paper_rgb
+    from incandescent.spectra.paper2011 import paper_rgb
 
     vol, s = inputs.volume, inputs.settings
     temp = trilinear(vol.temperature_K, p)

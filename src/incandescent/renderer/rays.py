@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from incandescent.camera import Camera
-from incandescent.render.settings import RenderSettings
+from incandescent.renderer.settings import RenderSettings
 from incandescent.volume import Volume
 
 

@@ -9,8 +9,8 @@ from __future__ import annotations
 import logging
 import os
 
-from incandescent.render.backends.common import MarchInputs, MarchResult
-from incandescent.render.backends.jit import BackendUnavailable, cuda_problem, llvm_problem
+from incandescent.renderer.backends.common import MarchInputs, MarchResult
+from incandescent.renderer.backends.jit import BackendUnavailable, cuda_problem, llvm_problem
 
 BACKENDS = ("reference", "cpu", "cuda")
 ENV_VAR = "INCANDESCENT_BACKEND"
@@ -54,9 +54,9 @@ def run_march(inputs: MarchInputs, backend: str, progress=None) -> MarchResult:
     """March with a resolved backend name; ``progress(fraction)`` is called as rays finish (the
     fast backends, between chunks of rays)."""
     if backend == "reference":
-        from incandescent.render.backends import reference
+        from incandescent.renderer.backends import reference
 
         return reference.march(inputs)
-    from incandescent.render.backends import march
+    from incandescent.renderer.backends import march
 
     return march.march(inputs, backend, progress)

@@ -8,14 +8,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from incandescent import __version__
+from incandescent._version import __version__
 from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
 from incandescent.colorimetry import rgb_to_xyz
-from incandescent.render.backends import MarchInputs, resolve_backend, run_march
-from incandescent.render.film import HDRImage, resolve_pixels
-from incandescent.render.rays import prepare_rays, ray_spec
-from incandescent.render.settings import RenderSettings
+from incandescent.renderer.backends import MarchInputs, resolve_backend, run_march
+from incandescent.renderer.film import HDRImage, resolve_pixels
+from incandescent.renderer.rays import prepare_rays, ray_spec
+from incandescent.renderer.settings import RenderSettings
 from incandescent.spectra.bins import bin_luts, make_bins
 from incandescent.spectra.lines import LineTable, build_species_lut, load_lines, species_names
 from incandescent.spectra.lut import T_MAX_K, EmissionLUT, build_emission_lut
@@ -27,9 +27,9 @@ def _cached_lut(t_max_K: float, kind: str, observer: str, constants: str) -> Emi
     """Tables of ``kind``: "blackbody" XYZ, or the paper's 19-sample sums ("paper") and 590 nm
     term ("sodium")."""
     if kind == "paper":
-        from incandescent.paper.colour import paper_spectrum_xyz as fn
+        from incandescent.spectra.paper2011 import paper_spectrum_xyz as fn
     elif kind == "sodium":
-        from incandescent.paper.colour import paper_sodium_xyz as fn
+        from incandescent.spectra.paper2011 import paper_sodium_xyz as fn
     else:
         from incandescent.spectra.blackbody import blackbody_xyz
 

@@ -20,9 +20,9 @@ import weakref
 
 import numpy as np
 
-from incandescent.render.backends.common import THIN_STEP, MarchInputs, MarchResult
-from incandescent.render.backends.jit import array_module, device_name, drjit_module
-from incandescent.render.rays import lane_order
+from incandescent.renderer.backends.common import THIN_STEP, MarchInputs, MarchResult
+from incandescent.renderer.backends.jit import array_module, device_name, drjit_module
+from incandescent.renderer.rays import lane_order
 
 
 class _Kernel:
@@ -59,7 +59,7 @@ class _Kernel:
         self.cell_voxels = None if cells is None else np.float32(cells.cell_voxels)
 
     def _init_paper(self, m, inputs: MarchInputs) -> None:
-        from incandescent.paper.colour import PAPER_XYZ_TO_RGB
+        from incandescent.spectra.paper2011 import PAPER_XYZ_TO_RGB
 
         s, sodium = inputs.settings, inputs.sodium_lut
         self.paper_matrix = [[float(v) for v in row] for row in PAPER_XYZ_TO_RGB]
@@ -144,7 +144,7 @@ class _Kernel:
 
     def paper_colour(self, temp, c):
         """The 2011 paper's voxel colour: chromaticity of the 19-sample sums (+ sodium) → sRGB,
-        negatives clamped, normalised to max 1, × T^exponent (``incandescent.paper.colour``)."""
+        negatives clamped, normalised to max 1, × T^exponent (``spectra.paper2011``)."""
         dr = self.dr
         position = self.lut_position(temp)
         xyz = self.lookup(self.lut, position)
@@ -368,8 +368,8 @@ def _lowbias32(x):
 
 def _ray_arrays(m, spec, order):
     """Camera rays generated in the kernel, one lane per ray in ``order`` (sub-pixel X, Y and the
-    ray's index, from :func:`~incandescent.render.rays.lane_order`), in voxel space, clipped to the
-    grid box [0, shape] (t_exit ≤ t_enter: the ray misses)."""
+    ray's index, from :func:`~incandescent.renderer.rays.lane_order`), in voxel space, clipped to
+    the grid box [0, shape] (t_exit ≤ t_enter: the ray misses)."""
     dr = drjit_module()
     s = spec.supersample
     x, y, index = (m.UInt(a) for a in order)

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from incandescent.render.rays import RayBatch, RaySpec
-from incandescent.render.settings import RenderSettings
+from incandescent.renderer.rays import RayBatch, RaySpec
+from incandescent.renderer.settings import RenderSettings
 from incandescent.spectra.lines import LineTable
 from incandescent.spectra.lut import EmissionLUT
 from incandescent.volume import MacrocellGrid, Volume

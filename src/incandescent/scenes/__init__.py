@@ -1,0 +1,107 @@
+"""Built-in scenes, and the one registry that ``demo``, ``bench`` and the galleries read.
+
+Modules: :mod:`~incandescent.scenes.synthetic` (plume, soot plume, sparse flame),
+:mod:`~incandescent.scenes.species` (coloured, sooty and clean flames),
+:mod:`~incandescent.scenes.paper` (the 2011 paper's soot sphere and moving-plate sequence).
+Scenes only build volumes; rendering them is the caller's.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from incandescent.camera import Camera
+from incandescent.imaging import DisplaySettings
+from incandescent.scenes.synthetic import (
+    AMBIENT_K,
+    plume,
+    plume_temperature,
+    soot_plume,
+    sparse_flame,
+)
+from incandescent.volume import Volume
+
+__all__ = [
+    "AMBIENT_K",
+    "COLOURED_FLAMES",
+    "SCENES",
+    "Scene",
+    "plume",
+    "plume_temperature",
+    "scene",
+    "soot_plume",
+    "sparse_flame",
+]
+
+#: The coloured flames, one per emitting species (``scenes.species.coloured_flame``).
+COLOURED_FLAMES = ("sodium", "lithium", "strontium", "copper", "barium")
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A named built-in scene: ``build(n)`` makes its n³-ish volume.
+
+    ``camera()`` and ``display`` are the scene's own view and display (None: the default
+    three-quarter camera and display); ``label`` describes it with ``{n}`` for the size."""
+
+    name: str
+    label: str
+    build: Callable[[int], Volume]
+    default_size: int = 96
+    camera: Callable[[], Camera] | None = None
+    display: DisplaySettings | None = None
+
+
+def _coloured(name: str, n: int) -> Volume:
+    from incandescent.scenes.species import coloured_flame
+
+    return coloured_flame(name, n)
+
+
+def _species(builder: str, n: int) -> Volume:
+    from incandescent.scenes import species
+
+    return getattr(species, builder)(n)
+
+
+def _sphere(n: int) -> Volume:
+    from incandescent.scenes.paper import paper_sphere
+
+    return paper_sphere(n)
+
+
+def _flame_camera() -> Camera:
+    from incandescent.scenes.species import flame_camera
+
+    return flame_camera()
+
+
+#: Line colours lie far outside sRGB: the species flames are shown gamut-clipped.
+_FLAME_DISPLAY = DisplaySettings(gamut="clip")
+
+
+def _flame(name: str, build: Callable[[int], Volume], label: str) -> Scene:
+    return Scene(name, label, build, 96, _flame_camera, _FLAME_DISPLAY)
+
+
+SCENES: dict[str, Scene] = {
+    "plume": Scene("plume", "plume {n}³", plume, 128),
+    "sparse": Scene("sparse", "small flame in an empty {n}³ box", sparse_flame, 128),
+    "soot": Scene("soot", "plume {n}³ with a graded κ grid", soot_plume, 128),
+    "sphere": Scene("sphere", "the 2011 paper's soot sphere {n}³", _sphere, 64),
+    **{
+        name: _flame(name, functools.partial(_coloured, name), f"{name} flame {{n}}³")
+        for name in COLOURED_FLAMES
+    },
+    "sooty": _flame("sooty", functools.partial(_species, "sooty_flame"), "sooty flame {n}³"),
+    "clean": _flame("clean", functools.partial(_species, "clean_flame"), "clean flame {n}³"),
+}
+
+
+def scene(name: str) -> Scene:
+    """The registered scene ``name``; the error lists the names."""
+    if name not in SCENES:
+        raise ValueError(f"unknown scene {name!r}; expected one of: {', '.join(SCENES)}")
+    return SCENES[name]
