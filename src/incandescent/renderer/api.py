@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import functools
 import platform
 from collections.abc import Callable
 
@@ -12,45 +11,23 @@ from incandescent._version import __version__
 from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
 from incandescent.colorimetry import rgb_to_xyz
+from incandescent.emission import models_for
 from incandescent.renderer.backends import MarchInputs, resolve_backend, run_march
 from incandescent.renderer.film import HDRImage, resolve_pixels
 from incandescent.renderer.rays import prepare_rays, ray_spec
 from incandescent.renderer.settings import RenderSettings
-from incandescent.spectra.bins import bin_luts, make_bins
-from incandescent.spectra.lines import LineTable, build_species_lut, load_lines, species_names
-from incandescent.spectra.lut import T_MAX_K, EmissionLUT, build_emission_lut
+from incandescent.spectra.lut import T_MAX_K
 from incandescent.volume import Volume
 
 
-@functools.lru_cache(maxsize=16)
-def _cached_lut(t_max_K: float, kind: str, observer: str, constants: str) -> EmissionLUT:
-    """Tables of ``kind``: "blackbody" XYZ, or the paper's 19-sample sums ("paper") and 590 nm
-    term ("sodium")."""
-    if kind == "paper":
-        from incandescent.spectra.paper2011 import paper_spectrum_xyz as fn
-    elif kind == "sodium":
-        from incandescent.spectra.paper2011 import paper_sodium_xyz as fn
-    else:
-        from incandescent.spectra.blackbody import blackbody_xyz
-
-        return build_emission_lut(t_max_K, lambda t: blackbody_xyz(t, observer, constants))
-    return build_emission_lut(t_max_K, fn)
-
-
-def _lut_t_max(volume: Volume) -> float:
-    """Top of the tables: T_MAX_K, which no volume exceeds (``volume.grid.T_CEILING_K``)."""
-    if volume.max_temperature_K > T_MAX_K:  # only a Volume built without from_arrays can be
+def _check_ceiling(volume: Volume) -> None:
+    """The tables end at T_MAX_K, which no volume from ``Volume.from_arrays`` exceeds
+    (``volume.grid.T_CEILING_K``); a Volume built otherwise is refused here."""
+    if volume.max_temperature_K > T_MAX_K:
         raise ValueError(
             f"volume's hottest voxel {volume.max_temperature_K:.4g} K is above the "
             f"{T_MAX_K:g} K ceiling of the emission tables"
         )
-    return T_MAX_K
-
-
-def emission_lut(volume: Volume, settings: RenderSettings, kind: str | None = None) -> EmissionLUT:
-    """The T ↦ XYZ table for this volume's temperature range (cached by range and physics)."""
-    kind = kind or ("paper" if settings.brightness == "paper" else "blackbody")
-    return _cached_lut(_lut_t_max(volume), kind, settings.observer, settings.constants)
 
 
 #: Host and device bytes per camera ray of a render (lane order, loop state, per-ray outputs and
@@ -119,68 +96,31 @@ def render(
 
 
 def _march_inputs(volume, camera, settings, backend: str) -> MarchInputs:
-    paper = settings.brightness == "paper"
+    _check_ceiling(volume)
+    models = models_for(volume, settings)
     cells = None
     if settings.skip_empty and backend != "reference":
-        cells = volume.macrocells(
-            settings.macrocell_voxels, settings.paper_min_K if paper else None
-        )
+        cells = volume.macrocells(settings.macrocell_voxels, *_occupancy(models))
     rays = prepare_rays(camera, volume, settings) if backend == "reference" else None
-    sodium = None
-    if paper and volume.sodium_fraction is not None:
-        sodium = emission_lut(volume, settings, "sodium")
-    table: LineTable | None = None
-    species: tuple[tuple[str, EmissionLUT], ...] = ()
-    if volume.species and not paper:
-        table = _line_table(settings.line_table)
-        species = tuple(
-            (name, _species_lut(settings.line_table, name, _lut_t_max(volume), settings.observer))
-            for name in volume.species
-        )
-    lut = emission_lut(volume, settings)
-    spectral = _spectral_tables(volume, settings) if settings.spectral_bins else ()
-    spec = ray_spec(camera, volume, settings)
-    return MarchInputs(rays, volume, lut, cells, settings, sodium, species, table, spectral, spec)
+    return MarchInputs(rays, volume, models, cells, settings, ray_spec(camera, volume, settings))
 
 
-def _spectral_tables(volume: Volume, settings: RenderSettings):
-    if volume.species:
-        raise ValueError(
-            "spectral_bins with species lines is not supported yet; render species with "
-            "spectral_bins = 0 (grey κ)"
-        )
-    return _cached_bins(
-        settings.spectral_bins,
-        float(settings.soot_alpha),
-        _lut_t_max(volume),
-        settings.observer,
-        settings.constants,
-    )
+def _occupancy(models) -> tuple[str, Callable[[Volume], np.ndarray]]:
+    """(cache key, grid) of where the models may emit: κ > 0 widened by each model's own
+    occupancy, or the display model's alone (the paper ignores absorption)."""
+    key = repr(tuple(model.occupancy_key for model in models))
+    display = next((m for m in models if m.kind == "display"), None)
 
+    def grid(volume: Volume) -> np.ndarray:
+        if display is not None:
+            return display.occupancy(volume)
+        out = volume.absorption_per_m
+        for model in models:
+            extra = model.occupancy(volume)
+            out = out if extra is None else np.maximum(out, extra)
+        return out
 
-@functools.lru_cache(maxsize=8)
-def _cached_bins(n: int, alpha: float, t_max_K: float, observer: str, constants: str):
-    bins = make_bins(n, alpha, observer)
-    tables = bin_luts(bins, t_max_K, observer, constants)
-    return tuple(zip((float(s) for s in bins.kappa_scale), tables, strict=True))
-
-
-@functools.lru_cache(maxsize=8)
-def _line_table(path: str | None) -> LineTable:
-    return load_lines(path)
-
-
-@functools.lru_cache(maxsize=64)
-def _species_lut(path: str | None, name: str, t_max_K: float, observer: str) -> EmissionLUT:
-    """The species' T ↦ XYZ-per-metre table; unknown names list the table's species."""
-    table = _line_table(path)
-    known = species_names(table)
-    if name not in known:
-        raise ValueError(
-            f"volume has a fraction grid for species {name!r}, which the line table "
-            f"{table.origin} does not list; it has: {', '.join(known)}"
-        )
-    return build_species_lut(table, name, t_max_K, observer=observer)
+    return key, grid
 
 
 def _scatter_rays(values: np.ndarray, index, inputs: MarchInputs, fill: float, reduce=np.mean):

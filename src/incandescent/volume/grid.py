@@ -13,7 +13,7 @@ emit nor absorb. Negative kelvin after remapping is an error unless a cutoff (> 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -146,20 +146,20 @@ class Volume:
         sodium = _fraction_grid(sodium_fraction, self.shape, "sodium_fraction", "volume")
         return self.replace(sodium_fraction=sodium)
 
-    def macrocells(self, cell_voxels: int = 8, paper_min_K: float | None = None) -> MacrocellGrid:
-        """Macrocells for empty-space skipping, computed once per cell size and mode.
+    def macrocells(
+        self,
+        cell_voxels: int = 8,
+        rule: str = "absorption",
+        occupancy: Callable[[Volume], NDArray] | None = None,
+    ) -> MacrocellGrid:
+        """Macrocells for empty-space skipping, computed once per cell size and ``rule``.
 
-        Physical mode: maximum κ (a cell is empty where nothing absorbs, so nothing emits).
-        Paper mode (``paper_min_K`` given): 1 where T ≥ paper_min_K (the paper ignores absorption).
+        A cell is empty where its ``occupancy(volume)`` grid (default: κ; an emission model's
+        rule otherwise, ``incandescent.emission``) is 0 in every voxel, border included.
         """
-        key = ("macrocells", cell_voxels, paper_min_K)
+        key = ("macrocells", cell_voxels, rule)
         if key not in self._cache:
-            if paper_min_K is None:  # empty: nothing absorbs and no species emits
-                grid = self.absorption_per_m
-                for fraction in self.species.values():
-                    grid = np.maximum(grid, fraction)
-            else:
-                grid = (self.temperature_K >= np.float32(paper_min_K)).astype(np.float32)
+            grid = self.absorption_per_m if occupancy is None else occupancy(self)
             self._cache[key] = build_macrocells(grid, cell_voxels)
         return self._cache[key]
 

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from incandescent.emission import Bands, EmissionModel, transport_bands
 from incandescent.renderer.rays import RayBatch, RaySpec
 from incandescent.renderer.settings import RenderSettings
-from incandescent.spectra.lines import LineTable
 from incandescent.spectra.lut import EmissionLUT
 from incandescent.volume import MacrocellGrid, Volume
 
@@ -34,16 +34,25 @@ class MarchInputs:
 
     rays: RayBatch | None  # host-generated rays that hit the box (reference backend); else None
     volume: Volume
-    lut: EmissionLUT
+    models: tuple[EmissionModel, ...]  # what emits (``incandescent.emission.models_for``)
     macrocells: MacrocellGrid | None
     settings: RenderSettings
-    sodium_lut: EmissionLUT | None = None  # paper mode with a sodium grid: the 590 nm term
-    #: physical mode: (species name, its T ↦ XYZ-per-metre table) for each fraction grid
-    species_luts: tuple[tuple[str, EmissionLUT], ...] = ()
-    line_table: LineTable | None = None  # the lines behind species_luts (the reference uses them)
-    #: spectral mode: the bins and, per bin, (κ scale (λ_ref/λ_b)^α, its T ↦ XYZ table)
-    spectral: tuple[tuple[float, EmissionLUT], ...] = ()
     ray_spec: RaySpec | None = None  # what the Dr.Jit kernels generate their rays from
+
+    @property
+    def bands(self) -> Bands:
+        """The wavelength bands of transport (grey, or spectral bins)."""
+        return transport_bands(self.models)
+
+    @property
+    def display(self) -> EmissionModel | None:
+        """The display model that replaces transport (the paper's), or None."""
+        return next((m for m in self.models if m.kind == "display"), None)
+
+    @property
+    def lut(self) -> EmissionLUT:
+        """The first model's first table: every table shares its 1/T spacing and T_min."""
+        return self.models[0].tables[0]
 
 
 @dataclass(frozen=True)

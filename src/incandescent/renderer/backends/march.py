@@ -26,28 +26,21 @@ from incandescent.renderer.rays import lane_order
 
 
 class _Kernel:
-    """Traced helpers bound to one Dr.Jit array module (``drjit.llvm`` or ``drjit.cuda``)."""
+    """Traced helpers bound to one Dr.Jit array module (``drjit.llvm`` or ``drjit.cuda``) and one
+    render: the medium, the emission models' device data, the step lattice and the macrocells.
+    The models (``incandescent.emission``) add their terms through :meth:`lookup`,
+    :meth:`trilinear`, :meth:`table` and :meth:`grid`."""
 
     def __init__(self, m, inputs: MarchInputs) -> None:
         self.dr, self.m = drjit_module(), m
         vol, lut, s = inputs.volume, inputs.lut, inputs.settings
+        self.volume = vol
         self.shape = vol.shape
         nx, ny, nz = (n + 2 for n in vol.shape)
         self.strides = (ny * nz, nz, 1)
-        self.medium, self.scale, self.sodium = _device_grids(m, vol)
+        self.medium, self.scale = _device_grids(m, vol)
         kappa0 = vol.two_valued_absorption_per_m
         self.kappa0 = None if kappa0 is None else np.float32(kappa0)
-        self.lut = m.Float(_table4(lut.values))
-        self.paper = s.brightness == "paper"
-        self.bins = [
-            (np.float32(scale), m.Float(_table4(t.values))) for scale, t in inputs.spectral
-        ]
-        self.species = [
-            (_device_grid(m, vol, ("species", name), vol.species[name]), m.Float(_table4(t.values)))
-            for name, t in inputs.species_luts
-        ]
-        if self.paper:
-            self._init_paper(m, inputs)
         self.lut_size, self.lut_t_min = lut.size, np.float32(lut.t_min_K)
         self.lut_w_min, self.lut_inv_dw = np.float32(lut.w_min), np.float32(lut.inv_dw)
         self.ds_per_voxel = np.float32(vol.voxel_size_m)
@@ -57,19 +50,25 @@ class _Kernel:
         self.cells = None if cells is None else m.Float(cells.empty_radius.ravel())
         self.cell_shape = None if cells is None else cells.shape
         self.cell_voxels = None if cells is None else np.float32(cells.cell_voxels)
+        self.bands = inputs.bands
+        self.kappa_scale = [np.float32(k) for k in self.bands.kappa_scale]
+        self.terms = [(model, model.bind(self)) for model in inputs.models]
+        self.display = next(((mo, b) for mo, b in self.terms if mo.kind == "display"), None)
+        self.sources = [(mo, b, i) for i, (mo, b) in enumerate(self.terms) if mo.kind == "source"]
+        self.coefficients = [
+            (mo, b, i) for i, (mo, b) in enumerate(self.terms) if mo.kind == "coefficient"
+        ]
 
-    def _init_paper(self, m, inputs: MarchInputs) -> None:
-        from incandescent.spectra.paper2011 import PAPER_XYZ_TO_RGB
+    # --- what the emission models use -----------------------------------------------------
+    def table(self, lut) -> object:
+        """A T ↦ XYZ table on the device, 16-byte rows (:func:`_table4`)."""
+        if lut.size != self.lut_size or lut.t_min_K != float(self.lut_t_min):
+            raise ValueError("every emission table must share the 1/T spacing of the first")
+        return self.m.Float(_table4(lut.values))
 
-        s, sodium = inputs.settings, inputs.sodium_lut
-        self.paper_matrix = [[float(v) for v in row] for row in PAPER_XYZ_TO_RGB]
-        self.paper_exponent = float(s.paper_exponent)
-        self.paper_min_K = np.float32(s.paper_min_K)
-        self.paper_gain_per_m = np.float32(s.paper_gain / inputs.volume.voxel_size_m)
-        self.sodium_lut = None
-        if sodium is not None:
-            assert sodium.size == inputs.lut.size and sodium.t_max_K == inputs.lut.t_max_K
-            self.sodium_lut = m.Float(_table4(sodium.values))
+    def grid(self, key: tuple, grid: np.ndarray):
+        """A padded volume grid on the device, uploaded once per volume and ``key``."""
+        return _device_grid(self.m, self.volume, key, grid)
 
     # --- sampling -------------------------------------------------------------------------
     def corners(self, p):
@@ -137,110 +136,98 @@ class _Kernel:
         lo, hi = dr.gather(Array4f, table, i0), dr.gather(Array4f, table, i0 + 1)
         return dr.lerp(Array3f(lo[0], lo[1], lo[2]), Array3f(hi[0], hi[1], hi[2]), frac)
 
-    def emission(self, temp):
-        """XYZ per unit absorption from the 1/T table, linear interpolation; 0 below T_min."""
-        xyz = self.lookup(self.lut, self.lut_position(temp))
-        return self.dr.select(temp >= self.lut_t_min, xyz, 0.0)
+    # --- the models' sums -------------------------------------------------------------------
+    def source_function(self, band: int, position, sampled):
+        """S = Σ of the source models' terms in ``band`` (XYZ per unit absorption)."""
+        eta = None
+        for model, bound, i in self.sources:
+            eta = model.add(self, bound, eta, band, position, sampled[i])
+        return self.m.Array3f(0.0) if eta is None else eta
 
-    def paper_colour(self, temp, c):
-        """The 2011 paper's voxel colour: chromaticity of the 19-sample sums (+ sodium) → sRGB,
-        negatives clamped, normalised to max 1, × T^exponent (``spectra.paper2011``)."""
-        dr = self.dr
+    def emission_coefficient(self, band: int, kappa, temp, sampled):
+        """η = κ·S + Σ of the coefficient models' terms, per metre; 0 below the tables' T_min."""
         position = self.lut_position(temp)
-        xyz = self.lookup(self.lut, position)
-        if self.sodium is not None and self.sodium_lut is not None:
-            fraction = dr.clip(self.trilinear(self.sodium, c), 0.0, 1.0)
-            xyz = dr.fma(self.lookup(self.sodium_lut, position), fraction, xyz)
-        chroma = xyz / (xyz[0] + xyz[1] + xyz[2])
-        rgb = self.m.Array3f(
-            *(
-                dr.maximum(sum(row[i] * chroma[i] for i in range(3)), 0.0)
-                for row in self.paper_matrix
-            )
-        )
-        peak = dr.maximum(dr.maximum(rgb[0], rgb[1]), rgb[2])
-        rgb = rgb * (dr.power(temp, self.paper_exponent) / peak)
-        return dr.select(temp >= self.lut_t_min, rgb, 0.0)
-
-    def accumulate_paper(self, tr, L, kappa, temp, c, ds_m, fractions):
-        """Paper mode: add colour × gain per voxel of path; no absorption (Tr stays 1)."""
-        rgb = self.paper_colour(temp, c)
-        if self.scale is not None:
-            rgb = rgb * self.trilinear(self.scale, c)
-        return tr, self.dr.fma(rgb, ds_m * self.paper_gain_per_m, L)
+        eta = self.source_function(band, position, sampled) * kappa
+        for model, bound, i in self.coefficients:
+            eta = model.add(self, bound, eta, band, position, sampled[i])
+        return self.dr.select(temp >= self.lut_t_min, eta, 0.0)
 
     # --- one segment ----------------------------------------------------------------------
-    def integrate(self, tr, L, kappa, temp, c, ds_m, fractions):
-        """Exact emission–absorption over one segment (Kirchhoff, DESIGN.md §3).
-
-        With species lines the emission coefficient is η = κ·B(T) + Σ_s f_s·E_s(T) (E_s per unit
-        length), and a segment adds Tr·η·(1 − e^{−κΔs})/κ (→ Tr·η·Δs as κ → 0)."""
+    def integrate(self, tr, L, kappa, temp, c, ds_m, sampled):
+        """Exact emission–absorption over one segment in the grey band (Kirchhoff, DESIGN §3):
+        L += Tr·S·(1 − e^{−κΔs}); with coefficient models, L += Tr·η·(1 − e^{−κΔs})/κ
+        (→ Tr·η·Δs as κ → 0)."""
         dr = self.dr
         x = kappa * ds_m
         e = dr.exp(-x)
         series = 1.0 - x * (0.5 - x * (1.0 / 6.0))
-        if self.species:
-            eta = self.emission_coefficient(kappa, temp, fractions)
+        if self.coefficients:
+            eta = self.emission_coefficient(0, kappa, temp, sampled)
             weight = dr.select(x < THIN_STEP, ds_m * series, (1.0 - e) / kappa)
         else:
-            eta = self.emission(temp)
+            source = self.source_function(0, self.lut_position(temp), sampled)
+            eta = dr.select(temp >= self.lut_t_min, source, 0.0)
             weight = dr.select(x < THIN_STEP, x * series, 1.0 - e)
         if self.scale is not None:
             eta = eta * self.trilinear(self.scale, c)
         return tr * e, dr.fma(eta, tr * weight, L)
 
-    def integrate_spectral(self, tr, L, kappa, temp, c, ds_m, fractions):
-        """Spectral mode: per bin b, κ_b = κ·(λ_ref/λ_b)^α and L += Tr_b·(1 − e^{−κ_bΔs})·XYZ_b(T);
-        ``tr`` is the list of per-bin transmittances."""
+    def integrate_bands(self, tr, L, kappa, temp, c, ds_m, sampled):
+        """Spectral bins: per band b, κ_b = κ·(λ_ref/λ_b)^α and L += Tr_b·S_b·(1 − e^{−κ_bΔs})
+        (with coefficient models Tr_b·η_b·(1 − e^{−κ_bΔs})/κ_b); ``tr`` is the list of
+        per-band transmittances."""
         dr = self.dr
         position = self.lut_position(temp)
         valid = temp >= self.lut_t_min
         scale = 1.0 if self.scale is None else self.trilinear(self.scale, c)
         updated = []
-        for (kappa_scale, table), tr_b in zip(self.bins, tr, strict=True):
+        for band, (kappa_scale, tr_b) in enumerate(zip(self.kappa_scale, tr, strict=True)):
             x = kappa * (ds_m * kappa_scale)
             e = dr.exp(-x)
-            alpha = dr.select(x < THIN_STEP, x * (1.0 - x * (0.5 - x * (1.0 / 6.0))), 1.0 - e)
-            xyz = dr.select(valid, self.lookup(table, position), 0.0)
-            L = dr.fma(xyz, tr_b * alpha * scale, L)
+            series = 1.0 - x * (0.5 - x * (1.0 / 6.0))
+            if self.coefficients:
+                kappa_b = kappa * kappa_scale
+                eta = self.emission_coefficient(band, kappa_b, temp, sampled) * scale
+                weight = dr.select(x < THIN_STEP, ds_m * series, (1.0 - e) / kappa_b)
+                L = dr.fma(eta, tr_b * weight, L)
+            else:
+                alpha = dr.select(x < THIN_STEP, x * series, 1.0 - e)
+                xyz = dr.select(valid, self.source_function(band, position, sampled), 0.0)
+                L = dr.fma(xyz, tr_b * alpha * scale, L)
             updated.append(tr_b * e)
         return updated, L
 
-    def emission_coefficient(self, kappa, temp, fractions):
-        """η = κ·XYZ(B(T)) + Σ_s f_s·XYZ_s(T), per metre of path; 0 below the tables' T_min."""
-        position = self.lut_position(temp)
-        eta = self.lookup(self.lut, position) * kappa
-        for fraction, (_, table) in zip(fractions, self.species, strict=True):
-            eta = self.dr.fma(self.lookup(table, position), fraction, eta)
-        return self.dr.select(temp >= self.lut_t_min, eta, 0.0)
+    def display_step(self, tr, L, kappa, temp, c, ds_m, sampled):
+        model, bound = self.display
+        return model.accumulate(self, bound, tr, L, temp, c, ds_m)
 
     def sample(self, k, tr, L, n, depth, p, t_mid, ds_m):
         """One segment: sample (κ, T) at its midpoint and integrate where the medium emits."""
         dr = self.dr
         c = self.corners(p)
         kappa, temp = self.medium_at(c)
-        fractions = [self.trilinear(grid, c) for grid, _ in self.species]
-        present = kappa > 0.0
-        for fraction in fractions:
-            present = present | (fraction > 0.0)
-        if self.paper:
-            interacts = emits = temp >= self.paper_min_K
+        sampled = [model.sample(self, bound, c) for model, bound in self.terms]
+        if self.display is not None:
+            interacts = emits = self.display[0].interacts(self, temp)
         else:  # a cold sample (T below the tables) still absorbs; it only emits nothing
+            present = kappa > 0.0
+            for (model, _), values in zip(self.terms, sampled, strict=True):
+                present = model.present(present, values)
             interacts, emits = present, present & (temp >= self.lut_t_min)
         tr, L = dr.if_stmt(
-            (tr, L, kappa, temp, c, ds_m, fractions),
+            (tr, L, kappa, temp, c, ds_m, sampled),
             interacts,
             self._accumulator(),
-            lambda tr, L, kappa, temp, c, ds_m, fractions: (tr, L),
+            lambda tr, L, kappa, temp, c, ds_m, sampled: (tr, L),
         )
         first = emits & (depth == np.inf)
         depth = dr.select(first, t_mid * self.ds_per_voxel, depth)
         return k + 1.0, tr, L, n + 1, depth
 
     def _accumulator(self):
-        if self.paper:
-            return self.accumulate_paper
-        return self.integrate_spectral if self.bins else self.integrate
+        if self.display is not None:
+            return self.display_step
+        return self.integrate if self.bands.grey else self.integrate_bands
 
     # --- empty space --------------------------------------------------------------------------
     def cell_index(self, p):
@@ -340,19 +327,18 @@ def _device_grid(m, volume, key: tuple, grid: np.ndarray):
 
 
 def _device_grids(m, volume):
-    """((κ, T) interleaved, emission scale, sodium fraction) as padded device arrays (None where
-    absent), uploaded once per volume.
+    """((κ, T) interleaved, emission scale) as padded device arrays (None where absent),
+    uploaded once per volume.
 
     κ and T of a voxel share a cache line, so the second lookup is nearly free.
     """
     per_volume = _DEVICE_GRIDS.setdefault(volume, {})
     if m.__name__ not in per_volume:
-        scale, sodium = volume.emission_scale, volume.sodium_fraction
+        scale = volume.emission_scale
         two_valued = volume.two_valued_absorption_per_m is not None
         per_volume[m.__name__] = (
             m.UInt(_signed_medium(volume)) if two_valued else m.UInt64(_packed_medium(volume)),
             None if scale is None else m.Float(_padded(scale)),
-            None if sodium is None else m.Float(_padded(sodium)),
         )
     return per_volume[m.__name__]
 
@@ -421,7 +407,7 @@ def trace(inputs: MarchInputs, m, order, K: _Kernel | None = None):
         return a, b
 
     def alive(tr):
-        if not K.bins:
+        if K.bands.grey:
             return tr >= K.min_tr
         most = tr[0]
         for tr_b in tr[1:]:
@@ -449,11 +435,11 @@ def trace(inputs: MarchInputs, m, order, K: _Kernel | None = None):
         radius = K.empty_radius(args[5])
         return dr.if_stmt(args + (radius,), radius > 0.0, skip, sample)
 
-    tr0 = [m.Float(1.0) for _ in K.bins] if K.bins else m.Float(1.0)
+    tr0 = m.Float(1.0) if K.bands.grey else [m.Float(1.0) for _ in range(K.bands.count)]
     state = (m.Float(0.0), tr0, m.Array3f(0.0), m.UInt(0), m.Float(np.inf))
     _, tr, L, n, depth = dr.while_loop(state, cond, body, labels=("k", "tr", "L", "n", "depth"))
-    if K.bins:  # report the mean transmittance over the bins
-        tr = sum(tr[1:], tr[0]) * (1.0 / len(K.bins))
+    if not K.bands.grey:  # report the mean transmittance over the bins
+        tr = sum(tr[1:], tr[0]) * (1.0 / K.bands.count)
     return L, tr, n, depth
 
 

@@ -1,10 +1,11 @@
 """The reference backend: a readable float64 NumPy marcher, the ground truth for the others.
 
 All rays advance in lockstep, one segment per iteration (see ``common`` for the step lattice).
-Paper mode (``brightness="paper"``) sums the 2011 paper's colour (``spectra.paper2011``) along
-the ray without absorption; the cap at 255 is applied when the image is assembled.
-Emission is evaluated *exactly* — the Planck × CMF integral at each sample's temperature — not from
-the table the fast backends use, so parity tests also check the table. No empty-space skipping.
+Each emission model (``incandescent.emission``) adds its term *exactly* — the Planck × CMF
+integral at each sample's temperature, the species' line sums — not from the tables the fast
+backends use, so parity tests also check the tables. Spectral bins are marched in their limit,
+every 1 nm CMF sample. A display model (the 2011 paper's) sums its colour along the ray without
+absorption; the cap at 255 is applied when the image is assembled. No empty-space skipping.
 """
 
 from __future__ import annotations
@@ -15,36 +16,29 @@ import numpy as np
 
 from incandescent.constants import K_M
 from incandescent.renderer.backends.common import MarchInputs, MarchResult, trilinear
-from incandescent.spectra.blackbody import blackbody_xyz
 
 
-def _emission_xyz(temp_K: np.ndarray, inputs: MarchInputs) -> np.ndarray:
-    """XYZ per unit absorption, exact; zero below the table's T_min as in the fast backends."""
-    s = inputs.settings
+def _sampled(inputs: MarchInputs, p: np.ndarray) -> list[list[np.ndarray]]:
+    """Every model's grid values at positions p (trilinear, float64)."""
+    return [[trilinear(g, p) for g in model.grids(inputs.volume)] for model in inputs.models]
+
+
+def _sources(inputs: MarchInputs, temp_K: np.ndarray, sampled) -> np.ndarray:
+    """S: the source models' exact XYZ per unit absorption at the samples."""
+    eta = None
+    for model, values in zip(inputs.models, sampled, strict=True):
+        if model.kind == "source":
+            eta = model.reference_add(eta, temp_K, values, inputs)
+    return np.zeros(temp_K.shape + (3,)) if eta is None else eta
+
+
+def _emission_xyz(temp_K: np.ndarray, inputs: MarchInputs, sampled) -> np.ndarray:
+    """S, exact; zero below the table's T_min as in the fast backends."""
     hot = temp_K >= inputs.lut.t_min_K
     out = np.zeros(temp_K.shape + (3,))
     if hot.any():
-        out[hot] = blackbody_xyz(temp_K[hot], s.observer, s.constants)
+        out[hot] = _sources(inputs, temp_K[hot], [[v[hot] for v in vs] for vs in sampled])
     return out
-
-
-def _paper_step(inputs, r, p, ds_m, xyz) -> np.ndarray:
-    """The 2011 paper: add paper_rgb(T, sodium)·gain per voxel of path where T ≥ paper_min_K.
-
-    Returns the mask of rays whose sample contributed."""
-    from incandescent.spectra.paper2011 import paper_rgb
-
-    vol, s = inputs.volume, inputs.settings
-    temp = trilinear(vol.temperature_K, p)
-    hot = temp >= np.float32(s.paper_min_K)
-    if not hot.any():
-        return hot
-    sodium = 0.0 if vol.sodium_fraction is None else trilinear(vol.sodium_fraction, p[hot])
-    rgb = paper_rgb(temp[hot], np.clip(sodium, 0.0, 1.0), s.paper_exponent)
-    if vol.emission_scale is not None:
-        rgb = rgb * trilinear(vol.emission_scale, p[hot])[:, None]
-    xyz[r[hot]] += rgb * (s.paper_gain * ds_m[hot] / vol.voxel_size_m)[:, None]
-    return hot
 
 
 def _segment(rays, r, k, step_voxels: float):
@@ -59,23 +53,21 @@ def march(inputs: MarchInputs) -> MarchResult:
     start = time.perf_counter()
     rays, vol, s = inputs.rays, inputs.volume, inputs.settings
     assert rays is not None, "the reference backend marches host-generated rays"
-    n = rays.size
-    xyz = np.zeros((n, 3))
-    transmittance = np.ones(n)
-    depth = np.full(n, np.inf)
-    k = np.zeros(n)
-    samples = 0
-    active = np.arange(n)
-    if s.spectral_bins:
+    if not inputs.bands.grey:
         return _march_spectral(inputs, start)
+    n = rays.size
+    xyz, transmittance, depth = np.zeros((n, 3)), np.ones(n), np.full(n, np.inf)
+    k, samples, active = np.zeros(n), 0, np.arange(n)
+    display = inputs.display
     while active.size:
         r = active
         a, b, p = _segment(rays, r, k[r], s.step_voxels)
         samples += r.size
-        if s.brightness == "paper":
-            emits = _paper_step(inputs, r, p, (b - a) * vol.voxel_size_m, xyz)
+        ds_m = (b - a) * vol.voxel_size_m
+        if display is not None:
+            emits = display.reference_step(inputs, trilinear, r, p, ds_m, xyz)  # type: ignore[attr-defined]
         else:
-            emits = _integrate_step(inputs, r, p, (b - a) * vol.voxel_size_m, xyz, transmittance)
+            emits = _integrate_step(inputs, r, p, ds_m, xyz, transmittance)
         first = emits & np.isinf(depth[r])
         depth[r[first]] = 0.5 * (a + b)[first] * vol.voxel_size_m
         k[r] += 1
@@ -89,9 +81,9 @@ def _integrate_step(inputs, r, p, ds_m, xyz, transmittance) -> np.ndarray:
     """Exact emission–absorption over one segment of ``ds_m`` metres for rays ``r``, in place.
 
     Returns the mask of rays whose sample emits (κ > 0 and T at or above the table's T_min)."""
+    if any(m.kind == "coefficient" for m in inputs.models):
+        return _integrate_coefficient_step(inputs, r, p, ds_m, xyz, transmittance)
     vol = inputs.volume
-    if vol.species:
-        return _integrate_species_step(inputs, r, p, ds_m, xyz, transmittance)
     kappa = trilinear(vol.absorption_per_m, p)
     absorbing = kappa > 0  # where κ = 0 nothing is emitted (Kirchhoff): skip the spectral integral
     emits = absorbing.copy()
@@ -103,31 +95,32 @@ def _integrate_step(inputs, r, p, ds_m, xyz, transmittance) -> np.ndarray:
     scale = 1.0 if vol.emission_scale is None else trilinear(vol.emission_scale, p)
     optical_depth = kappa * ds_m
     alpha = -np.expm1(-optical_depth)
-    emitted = (transmittance[r] * alpha * scale)[:, None] * _emission_xyz(temp, inputs)
-    xyz[r] += emitted
+    source = _emission_xyz(temp, inputs, _sampled(inputs, p))
+    xyz[r] += (transmittance[r] * alpha * scale)[:, None] * source
     transmittance[r] *= np.exp(-optical_depth)
     return emits
 
 
-def _integrate_species_step(inputs, r, p, ds_m, xyz, transmittance) -> np.ndarray:
-    """As :func:`_integrate_step` with species lines: η = κ·B(T) + Σ_s f_s·E_s(T) per metre,
-    and the segment adds Tr·η·(1 − e^{−κΔs})/κ (Tr·η·Δs where κ = 0); E_s exact, not tabulated."""
-    from incandescent.spectra.lines import species_xyz
-
-    vol, s = inputs.volume, inputs.settings
+def _integrate_coefficient_step(inputs, r, p, ds_m, xyz, transmittance) -> np.ndarray:
+    """As :func:`_integrate_step` with coefficient models (lines): η = κ·S + Σ η_model per
+    metre, and the segment adds Tr·η·(1 − e^{−κΔs})/κ (Tr·η·Δs where κ = 0)."""
+    vol = inputs.volume
     kappa = trilinear(vol.absorption_per_m, p)
-    fractions = {name: trilinear(grid, p) for name, grid in vol.species.items()}
+    sampled = _sampled(inputs, p)
     temp = trilinear(vol.temperature_K, p)
-    emits = ((kappa > 0) | np.any([f > 0 for f in fractions.values()], axis=0)) & (
-        temp >= inputs.lut.t_min_K
-    )
+    present = kappa > 0
+    for values in sampled:
+        for fraction in values:
+            present = present | (fraction > 0)
+    emits = present & (temp >= inputs.lut.t_min_K)
     if not emits.any():
         transmittance[r] *= np.exp(-kappa * ds_m)
         return emits
-    hot = temp[emits]
-    eta = kappa[emits, None] * _emission_xyz(hot, inputs)
-    for name, fraction in fractions.items():
-        eta += fraction[emits, None] * species_xyz(inputs.line_table, name, hot, s.observer)
+    hot, at = temp[emits], [[v[emits] for v in vs] for vs in sampled]
+    eta = kappa[emits, None] * _emission_xyz(hot, inputs, at)
+    for model, values in zip(inputs.models, at, strict=True):
+        if model.kind == "coefficient":
+            eta = model.reference_add(eta, hot, values, inputs)
     if vol.emission_scale is not None:
         eta *= trilinear(vol.emission_scale, p[emits])[:, None]
     x = kappa[emits] * ds_m[emits]
@@ -138,13 +131,32 @@ def _integrate_species_step(inputs, r, p, ds_m, xyz, transmittance) -> np.ndarra
     return emits
 
 
+def _spectral_eta(inputs, kappa_nm, temp, sampled, wavelength_nm, emits) -> tuple:
+    """Per-nm (η or S, coefficient?) at the samples: S_λ of the sources (per unit κ), or with
+    coefficient models η_λ = κ_λ·S_λ + Σ η_λ,model per metre; 0 where a sample does not emit."""
+    source = None
+    for model, values in zip(inputs.models, sampled, strict=True):
+        if model.kind == "source":
+            source = model.reference_spectrum_add(source, temp, values, wavelength_nm, inputs)
+    assert source is not None, "spectral bins need a source model (blackbody)"
+    coefficients = [(mo, v) for mo, v in zip(inputs.models, sampled, strict=True)]
+    coefficients = [(mo, v) for mo, v in coefficients if mo.kind == "coefficient"]
+    if not coefficients:
+        source[~emits] = 0.0
+        return source, False
+    eta = kappa_nm * source
+    for model, values in coefficients:
+        eta = model.reference_spectrum_add(eta, temp, values, wavelength_nm, inputs)
+    eta[~emits] = 0.0
+    return eta, True
+
+
 def _march_spectral(inputs: MarchInputs, start: float) -> MarchResult:
     """Spectral κ_λ = κ·(λ_ref/λ)^α marched at every 1 nm CMF sample (the limit of N bins):
-    L = K_m Σ_λ Σ_segments Tr_λ (1 − e^{−κ_λΔs}) B_λ(T) x̄ȳz̄(λ) Δλ. Same lattice as the others."""
-    from incandescent.constants import planck_constants
+    L = K_m Σ_λ Σ_segments Tr_λ (1 − e^{−κ_λΔs}) B_λ(T) x̄ȳz̄(λ) Δλ (with lines, Tr_λ η_λ
+    (1 − e^{−κ_λΔs})/κ_λ). Same lattice as the others."""
     from incandescent.spectra.bins import REFERENCE_NM
     from incandescent.spectra.cmf import cmfs
-    from incandescent.spectra.planck import NM_TO_M, _planck_m
 
     rays, vol, s = inputs.rays, inputs.volume, inputs.settings
     assert rays is not None, "the reference backend marches host-generated rays"
@@ -159,20 +171,26 @@ def _march_spectral(inputs: MarchInputs, start: float) -> MarchResult:
         a, b, p = _segment(rays, r, k[r], s.step_voxels)
         samples += r.size
         kappa, temp = trilinear(vol.absorption_per_m, p), trilinear(vol.temperature_K, p)
-        emits = (kappa > 0) & (temp >= inputs.lut.t_min_K)
+        sampled = _sampled(inputs, p)
+        present = kappa > 0
+        for values in sampled:
+            for fraction in values:
+                present = present | (fraction > 0)
+        emits = present & (temp >= inputs.lut.t_min_K)
+        ds_m = (b - a) * vol.voxel_size_m
+        kappa_nm = kappa[:, None] * kappa_scale
         x = (kappa * (b - a) * vol.voxel_size_m)[:, None] * kappa_scale  # (m, 471)
-        radiance = (
-            _planck_m(
-                cmf.wavelength_nm * NM_TO_M,
-                np.maximum(temp, 1.0)[:, None],
-                planck_constants(s.constants),
-            )
-            * NM_TO_M
+        radiance, per_metre = _spectral_eta(
+            inputs, kappa_nm, temp, sampled, cmf.wavelength_nm, emits
         )
-        radiance[~emits] = 0.0
         if vol.emission_scale is not None:
             radiance *= trilinear(vol.emission_scale, p)[:, None]
-        xyz[r] += (tr[r] * -np.expm1(-x) * radiance) @ weights
+        if per_metre:
+            safe = np.where(x > 0, kappa_nm, 1.0)
+            weight = np.where(x > 0, -np.expm1(-x) / safe, ds_m[:, None])
+        else:
+            weight = -np.expm1(-x)
+        xyz[r] += (tr[r] * weight * radiance) @ weights
         tr[r] *= np.exp(-x)
         first = emits & np.isinf(depth[r])
         depth[r[first]] = 0.5 * (a + b)[first] * vol.voxel_size_m
