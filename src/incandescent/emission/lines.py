@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from incandescent.constants import K_M
 from incandescent.emission.base import Bands, EmissionModel
-from incandescent.spectra.bins import SpectralBins
+from incandescent.spectra.bins import SpectralBins, make_bins
 from incandescent.spectra.cmf import cmfs
 from incandescent.spectra.lines import (
     LineTable,
@@ -25,7 +25,7 @@ from incandescent.spectra.lines import (
     species_spectrum,
     species_xyz,
 )
-from incandescent.spectra.lut import T_MAX_K, EmissionLUT, build_emission_lut
+from incandescent.spectra.lut import T_MAX_K, EmissionLUT, build_emission_luts
 
 
 @functools.lru_cache(maxsize=8)
@@ -59,17 +59,16 @@ def species_bin_xyz(
 
 
 @functools.lru_cache(maxsize=64)
-def species_bin_luts(
-    path: str | None, name: str, bins_key: tuple, bins: SpectralBins, observer: str
-) -> tuple[EmissionLUT, ...]:
-    """One table per bin of species ``name`` (``bins_key`` identifies ``bins`` for the cache)."""
+def species_bin_luts(path: str | None, name: str, n: int, observer: str) -> tuple[EmissionLUT, ...]:
+    """One table per bin of species ``name``, for ``n`` bins (their edges do not depend on α)."""
     species_lut(path, name, observer)  # validates the name
     table = line_table(path)
-
-    def one_bin(b: int):
-        return lambda t: species_bin_xyz(table, name, bins, t, observer)[..., b, :]
-
-    return tuple(build_emission_lut(T_MAX_K, one_bin(b)) for b in range(bins.count))
+    bins = make_bins(n, 0.0, observer)
+    return tuple(
+        build_emission_luts(
+            T_MAX_K, lambda t: species_bin_xyz(table, name, bins, t, observer), bins.count
+        )
+    )
 
 
 class SpeciesLines(EmissionModel):
@@ -87,14 +86,13 @@ class SpeciesLines(EmissionModel):
     ) -> None:
         self.species, self.observer, self.path = species, observer, line_table_path
         self.table = line_table(line_table_path)
-        if bands.grey:
-            self.per_species = tuple((species_lut(self.path, s, observer),) for s in species)
-        else:
-            assert bands.bins is not None
-            key = (tuple(bands.bins.edges), tuple(bands.bins.kappa_scale))
-            self.per_species = tuple(
-                species_bin_luts(self.path, s, key, bands.bins, observer) for s in species
-            )
+        per_species: list[tuple[EmissionLUT, ...]] = []
+        for name in species:
+            if bands.grey:
+                per_species.append((species_lut(self.path, name, observer),))
+            else:
+                per_species.append(species_bin_luts(self.path, name, bands.count, observer))
+        self.per_species = tuple(per_species)
         self.tables = tuple(t for tables in self.per_species for t in tables)
 
     @property

@@ -11,7 +11,7 @@ from incandescent._version import __version__
 from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
 from incandescent.colorimetry import rgb_to_xyz
-from incandescent.emission import models_for
+from incandescent.emission import EmissionModel, models_for
 from incandescent.renderer.backends import MarchInputs, resolve_backend, run_march
 from incandescent.renderer.film import HDRImage, resolve_pixels
 from incandescent.renderer.rays import prepare_rays, ray_spec
@@ -76,6 +76,7 @@ def render(
     backend: str | None = "auto",
     limits: Limits | None = None,
     progress: Callable[[float], None] | None = None,
+    models: tuple[EmissionModel, ...] | None = None,
 ) -> HDRImage:
     """Render ``volume`` seen by ``camera`` (default: a three-quarter view framing the gas).
 
@@ -83,21 +84,23 @@ def render(
     The render is estimated first and refused (:class:`~incandescent.budget.BudgetError`) when
     it exceeds ``limits`` (default: the memory available now and 1e11 samples). A Ctrl-C during
     the march is honoured within about a second (the fast backends march in chunks of rays,
-    calling ``progress(fraction of rays done)`` after each).
+    calling ``progress(fraction of rays done)`` after each). ``models``: the emission models
+    (``incandescent.emission``; default :func:`~incandescent.emission.models_for` of the
+    volume and settings).
     """
     _check_types(volume, camera, settings)
     settings = settings or RenderSettings()
     camera = camera or default_camera(volume.content_bounds_m)
     name = resolve_backend(backend)
     check_budget(volume, settings, name, limits or Limits())
-    inputs = _march_inputs(volume, camera, settings, name)
+    inputs = _march_inputs(volume, camera, settings, name, models)
     result = run_march(inputs, name, progress)
     return _assemble(inputs, result, name, camera)
 
 
-def _march_inputs(volume, camera, settings, backend: str) -> MarchInputs:
+def _march_inputs(volume, camera, settings, backend: str, models=None) -> MarchInputs:
     _check_ceiling(volume)
-    models = models_for(volume, settings)
+    models = models_for(volume, settings) if models is None else tuple(models)
     cells = None
     if settings.skip_empty and backend != "reference":
         cells = volume.macrocells(settings.macrocell_voxels, *_occupancy(models))

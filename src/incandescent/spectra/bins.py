@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from incandescent.constants import K_M, planck_constants
 from incandescent.spectra.cmf import cmfs
-from incandescent.spectra.lut import EmissionLUT, build_emission_lut
+from incandescent.spectra.lut import EmissionLUT, build_emission_luts
 from incandescent.spectra.planck import NM_TO_M, _planck_m
 
 #: Reference wavelength at which the volume's κ is given in spectral mode, nm.
@@ -81,8 +81,6 @@ def bin_luts(
     constants: str = "codata2018",
 ) -> list[EmissionLUT]:
     """One 1/T-uniform table per bin (same spacing as the blackbody table)."""
-
-    def one_bin(b: int):
-        return lambda t: bin_xyz(bins, t, observer, constants)[..., b, :]
-
-    return [build_emission_lut(t_max_K, one_bin(b)) for b in range(bins.count)]
+    return build_emission_luts(
+        t_max_K, lambda t: bin_xyz(bins, t, observer, constants), bins.count
+    )

@@ -78,6 +78,26 @@ def table_size(t_max_K: float, t_min_K: float = T_MIN_K) -> int:
     return max(MIN_ENTRIES, int(np.ceil(span * t_max_K / 0.015)) + 1)
 
 
+def build_emission_luts(
+    t_max_K: float, xyz_of_temperature: Callable[[NDArray], NDArray], count: int
+) -> list[EmissionLUT]:
+    """``count`` tables at once from ``xyz_of_temperature(T)`` of shape T.shape + (count, 3)
+    (e.g. the XYZ of every spectral bin), evaluated in blocks of temperatures; table b is what
+    :func:`build_emission_lut` gives for ``lambda t: xyz_of_temperature(t)[..., b, :]``."""
+    t_max = max(_validate.positive_scalar(t_max_K, "t_max_K"), T_MAX_K)
+    w = np.linspace(1.0 / t_max, 1.0 / T_MIN_K, table_size(t_max, T_MIN_K))
+    temps = 1.0 / w
+    values = np.empty((w.size, count, 3))
+    for start in range(0, w.size, 2048):
+        values[start : start + 2048] = xyz_of_temperature(temps[start : start + 2048])
+    tables = []
+    for b in range(count):
+        column = np.ascontiguousarray(values[:, b, :])
+        column.setflags(write=False)
+        tables.append(EmissionLUT(T_MIN_K, t_max, column))
+    return tables
+
+
 def build_emission_lut(
     t_max_K: float = T_MAX_K,
     xyz_of_temperature: Callable[[NDArray], NDArray] | None = None,
