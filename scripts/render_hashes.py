@@ -28,7 +28,7 @@ SIZE = {"width": 40, "height": 32}
 
 def _digest(image) -> dict[str, str]:
     arrays = {"values": image.xyz, "transmittance": image.transmittance, "depth": image.depth_m}
-    for name in ("rgb_display", "paper_rgb"):
+    for name in ("display_rgb",):
         if getattr(image, name, None) is not None:
             arrays["values"] = getattr(image, name)
     out = {}

@@ -31,14 +31,15 @@ def test_uniform_slab_sums_paper_colour_without_absorption(backend, temperature_
     s = RenderSettings(width=3, height=3, brightness="paper", paper_gain=gain, step_voxels=step)
     img = render(_slab(temperature_K), FACE_ON, s, backend=backend)
     expected = np.minimum(paper_rgb(temperature_K) * gain * 10.0, 255.0)  # 10 voxels of path
-    np.testing.assert_allclose(img.rgb("srgb")[1, 1], expected, rtol=2e-4, atol=1e-3)
+    np.testing.assert_allclose(img.display_rgb[1, 1], expected, rtol=2e-4, atol=1e-3)
+    assert img.xyz is None  # display-referred: no absolute XYZ to disguise it as
     assert np.all(img.transmittance == 1.0)  # the paper ignores absorption
 
 
 @pytest.mark.parametrize("backend", ["reference", "cpu"])
 def test_sums_are_capped_at_255(backend):
     s = RenderSettings(width=3, height=3, brightness="paper")
-    rgb = render(_slab(6000.0, 40), FACE_ON, s, backend=backend).rgb("srgb")
+    rgb = render(_slab(6000.0, 40), FACE_ON, s, backend=backend).display_rgb
     np.testing.assert_allclose(rgb.max(), 255.0, rtol=1e-5)
     assert np.asarray(display_pixels(render(_slab(6000.0, 40), FACE_ON, s))).max() == 255
 
@@ -46,16 +47,16 @@ def test_sums_are_capped_at_255(backend):
 def test_samples_below_paper_threshold_do_not_contribute():
     cool = _slab(700.0)
     s = RenderSettings(width=3, height=3, brightness="paper")
-    assert render(cool, FACE_ON, s, backend="cpu").xyz.max() == 0.0
+    assert render(cool, FACE_ON, s, backend="cpu").display_rgb.max() == 0.0
     lowered = render(cool, FACE_ON, s.replace(paper_min_K=600.0), backend="cpu")
-    assert lowered.xyz.max() > 0.0
+    assert lowered.display_rgb.max() > 0.0
 
 
 def test_sodium_fraction_adds_the_590_nm_term():
     """At 6500 K (near white) sodium's 590 nm light pulls the colour toward orange: less blue."""
     s = RenderSettings(width=3, height=3, brightness="paper", paper_gain=1e-8)
-    plain = render(_slab(6500.0), FACE_ON, s, backend="cpu").rgb("srgb")[1, 1]
-    sodium = render(_slab(6500.0, sodium=1.0), FACE_ON, s, backend="cpu").rgb("srgb")[1, 1]
+    plain = render(_slab(6500.0), FACE_ON, s, backend="cpu").display_rgb[1, 1]
+    sodium = render(_slab(6500.0, sodium=1.0), FACE_ON, s, backend="cpu").display_rgb[1, 1]
     assert sodium[2] / sodium.max() < 0.95 * plain[2] / plain.max()
     np.testing.assert_allclose(sodium, paper_rgb(6500.0, 1.0) * 1e-8 * 10.0, rtol=2e-4)
 
@@ -68,12 +69,25 @@ def test_paper_mode_cpu_matches_reference(jit_backend, seed):
     vol = Volume.from_arrays(temp, voxel_size_m=0.05, sodium_fraction=sodium)
     cam = Camera(eye=(0.5, 0.4, 0.6), target=(0, 0, 0), fov_deg=50.0)
     s = RenderSettings(width=19, height=13, brightness="paper", paper_gain=2e-5, seed=seed)
-    ref = render(vol, cam, s, backend="reference").rgb("srgb")
-    fast = render(vol, cam, s, backend=jit_backend).rgb("srgb")
+    ref = render(vol, cam, s, backend="reference").display_rgb
+    fast = render(vol, cam, s, backend=jit_backend).display_rgb
     assert 0 < ref.max() < 255  # uncapped, so the comparison sees the sums
     np.testing.assert_allclose(fast, ref, rtol=2e-4, atol=1e-4 * ref.max())
-    skipped = render(vol, cam, s.replace(skip_empty=False), backend=jit_backend).rgb("srgb")
+    skipped = render(vol, cam, s.replace(skip_empty=False), backend=jit_backend).display_rgb
     np.testing.assert_allclose(skipped, fast, rtol=1e-5, atol=1e-6 * ref.max())
+
+
+def test_paper_image_is_display_rgb_in_its_own_field(tmp_path):
+    from incandescent.io.images import read_exr
+    from incandescent.io.output import save_image
+
+    img = render(_slab(3000.0), FACE_ON, RenderSettings(width=3, height=3, brightness="paper"))
+    with pytest.raises(ValueError, match="display-referred RGB"):
+        _ = img.luminance
+    rgb, meta, _ = read_exr(save_image(img, tmp_path / "paper.exr"))
+    np.testing.assert_array_equal(rgb, img.display_rgb)
+    assert meta["units"].startswith("display-referred sRGB code values")
+    assert meta["emission_models"] == "paper2011"
 
 
 def test_paper_settings_are_validated():

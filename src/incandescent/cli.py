@@ -335,7 +335,7 @@ def _stats(image, start: float) -> dict:
         "absorption": meta["absorption"],
         "width": image.width,
         "height": image.height,
-        "max_luminance_cd_m2": float(image.luminance.max()),
+        "max_luminance_cd_m2": None if image.xyz is None else float(image.luminance.max()),
     }
 
 

@@ -12,11 +12,15 @@ from incandescent.io.images import atomic_write, write_exr, write_png
 from incandescent.renderer.film import HDRImage
 
 IMAGE_SUFFIXES = (".exr", ".png")
+#: What the RGB of a display-referred image (the 2011 paper's) is.
+DISPLAY_UNITS = "display-referred sRGB code values 0..255 (the 2011 paper's sums), not radiometric"
 
 
 def _metadata(image: HDRImage, extra: dict | None = None) -> dict[str, str]:
     meta = {k: str(v) for k, v in image.metadata.items()}
     meta.update({"units": "XYZ Y in cd/m^2; RGB linear, absolute", "colour_space": image.space})
+    if image.display_rgb is not None:
+        meta.update({"units": DISPLAY_UNITS, "colour_space": "srgb (display-encoded)"})
     meta.update({k: str(v) for k, v in (extra or {}).items()})
     return meta
 
@@ -30,6 +34,9 @@ def save_image(
     """Write ``image`` to ``path`` by suffix; never renders again; atomic; refuses to overwrite."""
     path = Path(path)
     suffix = path.suffix.lower()
+    if suffix == ".exr" and image.display_rgb is not None:
+        meta = _metadata(image, {"units": DISPLAY_UNITS, "exposure": "none (display-referred)"})
+        return write_exr(path, image.display_rgb, meta, overwrite, {"A": image.alpha})
     if suffix == ".exr":
         meta = _metadata(image, {"exposure": "none (scene-referred)"})
         extra = {"A": image.alpha}
@@ -45,10 +52,10 @@ def save_image(
 
 
 def display_pixels(image: HDRImage, display: DisplaySettings | None = None) -> np.ndarray:
-    """8/16-bit display RGB: the display pipeline, or — for paper-mode images, whose values are
-    already the paper's display values capped at 255 — those values as they are (8-bit)."""
-    if image.metadata.get("brightness") == "paper":
-        return np.round(np.clip(image.rgb("srgb"), 0.0, 255.0)).astype(np.uint8)
+    """8/16-bit display RGB: the display pipeline, or — for display-referred images (the 2011
+    paper's, whose values are already display values capped at 255) — those values (8-bit)."""
+    if image.display_rgb is not None:
+        return np.round(np.clip(image.display_rgb, 0.0, 255.0)).astype(np.uint8)
     display = display or DisplaySettings(space=image.space)
     return to_display(image.xyz, display, hottest_K=image.metadata.get("max_temperature_K"))
 

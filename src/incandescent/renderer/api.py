@@ -10,8 +10,8 @@ import numpy as np
 from incandescent._version import __version__
 from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
-from incandescent.colorimetry import rgb_to_xyz
 from incandescent.emission import EmissionModel, models_for
+from incandescent.emission.paper2011 import PAPER_CAP
 from incandescent.renderer.backends import MarchInputs, resolve_backend, run_march
 from incandescent.renderer.film import HDRImage, resolve_pixels
 from incandescent.renderer.rays import prepare_rays, ray_spec
@@ -139,9 +139,11 @@ def _scatter_rays(values: np.ndarray, index, inputs: MarchInputs, fill: float, r
 
 def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRImage:
     values = _scatter_rays(result.xyz, result.ray_index, inputs, 0.0)
-    if inputs.settings.brightness == "paper":  # the paper's RGB sums, capped at 255
-        values = rgb_to_xyz(np.minimum(values, 255.0), "srgb")
-    xyz = values.astype(np.float32)
+    xyz, display_rgb = None, None
+    if inputs.display is not None:  # display-referred RGB: the paper's sums, capped
+        display_rgb = np.minimum(values, PAPER_CAP).astype(np.float32)
+    else:
+        xyz = values.astype(np.float32)
     index = result.ray_index
     tr = _scatter_rays(result.transmittance, index, inputs, 1.0).astype(np.float32)
     depth = _scatter_rays(result.depth_m, index, inputs, np.inf, np.min).astype(np.float32)
@@ -162,5 +164,6 @@ def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRI
         "camera": repr(camera),
         "incandescent_version": __version__,
         "python": platform.python_version(),
+        "emission_models": ", ".join(model.name for model in inputs.models),
     }
-    return HDRImage(xyz, tr, s.space, metadata, depth)
+    return HDRImage(xyz, tr, s.space, metadata, depth, display_rgb)

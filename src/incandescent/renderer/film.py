@@ -1,4 +1,5 @@
-"""HDRImage: the renderer's output — scene-referred absolute XYZ plus metadata, no file I/O."""
+"""HDRImage: the renderer's output — scene-referred absolute XYZ (or, for a display model such
+as the 2011 paper's, display-referred RGB) plus metadata, no file I/O."""
 
 from __future__ import annotations
 
@@ -14,32 +15,46 @@ class HDRImage:
 
     Attributes
     ----------
-    xyz: (H, W, 3) float32 absolute CIE XYZ; Y is luminance in cd/m².
+    xyz: (H, W, 3) float32 absolute CIE XYZ; Y is luminance in cd/m². None for a
+        display-referred image.
     transmittance: (H, W) float32 transmittance along each pixel's rays (1 = nothing in front).
     space: name of the RGB space :meth:`rgb` converts to by default.
     metadata: what made the image (backend, device, settings, samples, seconds, versions...).
     depth_m: (H, W) distance in m from the camera to the first emitting sample, the nearest over
         a pixel's sub-samples; inf where nothing emits.
+    display_rgb: (H, W, 3) float32 display-referred sRGB values of a *display* emission model
+        (the 2011 paper's sums, capped at 255: 8-bit code values, not radiometric), else None.
     """
 
-    xyz: NDArray[np.float32]
+    xyz: NDArray[np.float32] | None
     transmittance: NDArray[np.float32]
     space: str = "srgb"
     metadata: dict = field(default_factory=dict)
     depth_m: NDArray[np.float32] | None = None
+    display_rgb: NDArray[np.float32] | None = None
 
     @property
     def height(self) -> int:
-        return int(self.xyz.shape[0])
+        return int(self.transmittance.shape[0])
 
     @property
     def width(self) -> int:
-        return int(self.xyz.shape[1])
+        return int(self.transmittance.shape[1])
+
+    @property
+    def scene_xyz(self) -> NDArray[np.float32]:
+        """``xyz``, or a clear error for a display-referred image (which has none)."""
+        if self.xyz is None:
+            raise ValueError(
+                "this image is display-referred RGB (image.display_rgb: the 2011 paper's capped "
+                "sums), not absolute XYZ; it has no luminance or scene-linear RGB"
+            )
+        return self.xyz
 
     @property
     def luminance(self) -> NDArray[np.float32]:
         """Y in cd/m², (H, W)."""
-        return self.xyz[..., 1]
+        return self.scene_xyz[..., 1]
 
     @property
     def alpha(self) -> NDArray[np.float32]:
@@ -50,7 +65,7 @@ class HDRImage:
         """Linear RGB (H, W, 3) in ``space`` (default: the image's), unclipped."""
         from incandescent.colorimetry import xyz_to_rgb
 
-        return xyz_to_rgb(self.xyz, space or self.space).astype(np.float32)
+        return xyz_to_rgb(self.scene_xyz, space or self.space).astype(np.float32)
 
 
 def resolve_pixels(
