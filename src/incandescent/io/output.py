@@ -57,7 +57,7 @@ def display_pixels(image: HDRImage, display: DisplaySettings | None = None) -> n
     if image.display_rgb is not None:
         return np.round(np.clip(image.display_rgb, 0.0, 255.0)).astype(np.uint8)
     display = display or DisplaySettings(space=image.space)
-    return to_display(image.xyz, display, hottest_K=image.metadata.get("max_temperature_K"))
+    return to_display(image.scene_xyz, display, hottest_K=image.metadata.get("max_temperature_K"))
 
 
 def write_json(path: str | Path, data: dict, overwrite: bool = False) -> Path:
