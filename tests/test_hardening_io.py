@@ -15,12 +15,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import incandescent as inc
+from incandescent.animation import render_sequence
 from incandescent.api import DisplaySettings, load_volume
 from incandescent.budget import BudgetError, Limits
 from incandescent.config import SceneError, load_scene
 from incandescent.io import atomic
 from incandescent.io.output import write_json
-from incandescent.io.video import render_sequence
 from incandescent.io.volumes import _npy_header, open_grids
 from incandescent.scenes import plume
 

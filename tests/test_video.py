@@ -11,17 +11,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from incandescent.animation import animate, frame_path, render_sequence
 from incandescent.camera import Camera
 from incandescent.imaging import DisplaySettings, to_display
 from incandescent.io import images as images_module
-from incandescent.io.video import (
-    animate,
-    frame_path,
-    read_frames,
-    render_sequence,
-    write_gif,
-    write_mp4,
-)
+from incandescent.io.video import read_frames, write_gif, write_mp4
 from incandescent.renderer import RenderSettings, render
 from incandescent.scenes.paper import PlateScene
 from incandescent.volume import Volume

@@ -17,6 +17,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from incandescent._version import __version__
+from incandescent.io.formats import SCENE_SUFFIXES
 from incandescent.scenes import SCENES
 
 if TYPE_CHECKING:
@@ -226,7 +227,7 @@ def render(
     _summary(image, written)
 
 
-SCENE_SUFFIXES = (".toml", ".json")
+
 
 
 def _scene(source: Path, overrides: dict):
@@ -316,11 +317,11 @@ def _check_outputs(image: Path, stats: Path | None, overwrite: bool) -> None:
     """Fail before rendering, not after: unsupported suffix, existing file without --overwrite,
     missing or read-only folder, a folder or device in the way (``io.atomic.check_output``)."""
     from incandescent.io.atomic import check_output
-    from incandescent.io.output import IMAGE_SUFFIXES
+    from incandescent.io.formats import IMAGE_SUFFIXES, STATS_SUFFIXES
 
     target = check_output(image, overwrite, IMAGE_SUFFIXES, "image")
     if stats is not None:
-        if check_output(stats, overwrite, (".json",), "stats") == target:
+        if check_output(stats, overwrite, STATS_SUFFIXES, "stats") == target:
             raise ValueError(f"--stats {stats} is the image output itself; give another file")
 
 
@@ -523,10 +524,10 @@ def animate(
         file_identity,
         fixed_display,
         key_frame,
+        plan_output,
         render_video,
     )
     from incandescent.camera import paths as paths_module
-    from incandescent.io.video import plan_output
 
     with _guarded():
         limits = _limits(max_memory, max_samples)

@@ -22,10 +22,11 @@ from typing import Any
 from pydantic import BaseModel, ValidationError
 
 from incandescent.config.schema import Scene
+from incandescent.io.formats import SCENE_SUFFIXES
 
 __all__ = ["SUFFIXES", "SceneError", "load_scene", "merge_overrides", "scene_from_dict"]
 
-SUFFIXES = (".toml", ".json")
+SUFFIXES = SCENE_SUFFIXES
 #: Keys holding file paths, resolved against the scene file's folder.
 PATH_KEYS = (("volume", "path"), ("output", "path"), ("output", "stats"))
 #: At most this many problems are spelled out in one message.

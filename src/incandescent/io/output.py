@@ -8,10 +8,11 @@ from pathlib import Path
 import numpy as np
 
 from incandescent.imaging import DisplaySettings, to_display
+from incandescent.io.formats import IMAGE_SUFFIXES as _IMAGE_SUFFIXES
 from incandescent.io.images import atomic_write, write_exr, write_png
 from incandescent.renderer.film import HDRImage
 
-IMAGE_SUFFIXES = (".exr", ".png")
+IMAGE_SUFFIXES = _IMAGE_SUFFIXES
 #: What the RGB of a display-referred image (the 2011 paper's) is.
 DISPLAY_UNITS = "display-referred sRGB code values 0..255 (the 2011 paper's sums), not radiometric"
 

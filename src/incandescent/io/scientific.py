@@ -70,7 +70,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from incandescent.io.volumes import Grids, GridSource
+from incandescent.io.formats import HDF5_SUFFIXES, NETCDF_SUFFIXES, SCIENCE_SUFFIXES
+from incandescent.io.grids import Grids, GridSource
 
 __all__ = [
     "HDF5_SUFFIXES",
@@ -85,9 +86,7 @@ __all__ = [
 
 log = logging.getLogger("incandescent")
 
-HDF5_SUFFIXES = (".h5", ".hdf5")
-NETCDF_SUFFIXES = (".nc", ".nc4")
-SUFFIXES = HDF5_SUFFIXES + NETCDF_SUFFIXES
+SUFFIXES = SCIENCE_SUFFIXES
 INSTALL_HINT = "pip install 'incandescent[science]'"
 #: Attributes read as the axis order of an HDF5 dataset, first found wins.
 AXES_ATTRIBUTES = ("axes", "axis_order", "dimension_labels")

@@ -66,7 +66,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-SUFFIXES = (".vdb", ".nvdb")
+from incandescent.io.formats import VDB_SUFFIXES
+
+SUFFIXES = VDB_SUFFIXES
 #: Default cap on the voxels of one dense box (512³ float32 = 512 MiB per grid).
 MAX_DENSE_VOXELS = 512**3
 #: Relative tolerance when comparing voxel sizes and translations.

@@ -13,40 +13,18 @@ import struct
 import tokenize
 import zipfile
 import zlib
-from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from incandescent.budget import Limits
+from incandescent.io.formats import SCIENCE_SUFFIXES, VDB_SUFFIXES, VOLUME_SUFFIXES
+from incandescent.io.grids import Grids, GridSource
 
-NUMPY_SUFFIXES = (".npy", ".npz")
-VDB_SUFFIXES = (".vdb", ".nvdb")
-SCIENCE_SUFFIXES = (".h5", ".hdf5", ".nc", ".nc4")  # incandescent.io.scientific (extra "science")
-SUFFIXES = NUMPY_SUFFIXES + VDB_SUFFIXES + SCIENCE_SUFFIXES
-
-
-@dataclass(frozen=True)
-class Grids:
-    """Grids read on one common box of voxels, and that box's placement where the file has one
-    (VDB: world position of the corner of voxel (0, 0, 0) and voxel side, m), else None."""
-
-    arrays: dict[str, NDArray]
-    origin_m: tuple[float, float, float] | None = None
-    voxel_size_m: float | None = None
-
-
-@dataclass(frozen=True)
-class GridSource:
-    """A volume file's readable grids by name, and a reader for the ones a render needs."""
-
-    path: Path
-    names: tuple[str, ...]
-    read: Callable[[Iterable[str]], Grids]
-    #: per grid, what the reader did or found (axis order, unit conversion, placement, problems)
-    notes: Mapping[str, str] = field(default_factory=dict)
+SUFFIXES = VOLUME_SUFFIXES
 
 
 #: What NumPy, zipfile and zlib raise on corrupt or truncated .npy/.npz files (found by fuzzing).

@@ -1,0 +1,20 @@
+"""The one table of file formats the package reads and writes, by suffix."""
+
+from __future__ import annotations
+
+#: Volume inputs: NumPy (``io.volumes``), OpenVDB/NanoVDB (``io.vdb``), HDF5 and NetCDF
+#: (``io.scientific``, extra "science").
+NUMPY_SUFFIXES = (".npy", ".npz")
+VDB_SUFFIXES = (".vdb", ".nvdb")
+HDF5_SUFFIXES = (".h5", ".hdf5")
+NETCDF_SUFFIXES = (".nc", ".nc4")
+SCIENCE_SUFFIXES = HDF5_SUFFIXES + NETCDF_SUFFIXES
+VOLUME_SUFFIXES = NUMPY_SUFFIXES + VDB_SUFFIXES + SCIENCE_SUFFIXES
+#: Scene files (``config``).
+SCENE_SUFFIXES = (".toml", ".json")
+#: Rendered images (``io.output``): scene-linear EXR, display PNG.
+IMAGE_SUFFIXES = (".exr", ".png")
+#: Videos (``io.video``); any other animation output is a folder of PNG frames.
+VIDEO_SUFFIXES = (".mp4", ".gif")
+#: Render statistics (``--stats``).
+STATS_SUFFIXES = (".json",)

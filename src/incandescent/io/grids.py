@@ -1,0 +1,31 @@
+"""What every volume reader returns: named raw grids on one box of voxels, and a lazy source of
+them (``io.volumes``, ``io.vdb``, ``io.scientific``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from numpy.typing import NDArray
+
+
+@dataclass(frozen=True)
+class Grids:
+    """Grids read on one common box of voxels, and that box's placement where the file has one
+    (VDB: world position of the corner of voxel (0, 0, 0) and voxel side, m), else None."""
+
+    arrays: dict[str, NDArray]
+    origin_m: tuple[float, float, float] | None = None
+    voxel_size_m: float | None = None
+
+
+@dataclass(frozen=True)
+class GridSource:
+    """A volume file's readable grids by name, and a reader for the ones a render needs."""
+
+    path: Path
+    names: tuple[str, ...]
+    read: Callable[[Iterable[str]], Grids]
+    #: per grid, what the reader did or found (axis order, unit conversion, placement, problems)
+    notes: Mapping[str, str] = field(default_factory=dict)
