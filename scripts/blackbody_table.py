@@ -18,13 +18,13 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from docpage import draw_kelvin_ticks
 from numpy.typing import NDArray
 
 from incandescent import __version__
 from incandescent.colorimetry import xyz_to_rgb, xyz_to_xy
 from incandescent.constants import CODATA_2018, K_M
 from incandescent.imaging import DisplaySettings, to_display
-from incandescent.io.docpage import draw_kelvin_ticks
 from incandescent.io.images import write_png
 from incandescent.io.output import write_text
 from incandescent.spectra import blackbody_xyz

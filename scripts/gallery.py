@@ -22,14 +22,14 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
+from docpage import PageImages, draw_kelvin_ticks
 from numpy.typing import NDArray
 
 from incandescent import __version__, blackbody_xyz
 from incandescent.animation import plate_camera
 from incandescent.colorimetry import xyz_to_uv_prime
 from incandescent.imaging import DisplaySettings, auto_exposure_scale, lit_percentile, to_display
-from incandescent.io.docpage import PageImages, draw_kelvin_ticks
-from incandescent.io.output import display_pixels
+from incandescent.imaging.pipeline import display_pixels
 from incandescent.renderer import HDRImage, RenderSettings, render
 from incandescent.renderer.settings import PAPER_GAIN, PAPER_MIN_K
 from incandescent.scenes.paper import PlateScene, paper_sphere

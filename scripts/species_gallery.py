@@ -21,13 +21,13 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
+from docpage import PageImages
 from numpy.typing import NDArray
 
 from incandescent import __version__
 from incandescent.colorimetry import xyz_to_xy
 from incandescent.imaging import DisplaySettings, lit_percentile, to_display
-from incandescent.io.docpage import PageImages
-from incandescent.io.output import display_pixels
+from incandescent.imaging.pipeline import display_pixels
 from incandescent.renderer import HDRImage, RenderSettings, render
 from incandescent.scenes.species import (
     CLEAN_SPECIES,

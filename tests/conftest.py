@@ -3,7 +3,14 @@ exists (skipped cleanly elsewhere)."""
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+
 import pytest
+
+#: The doc scripts and their helpers (``scripts/docpage.py``) import each other as top-level
+#: modules, as ``python scripts/NAME.py`` runs them.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 
 from incandescent.renderer.backends.jit import cuda_problem, llvm_problem
 

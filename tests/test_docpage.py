@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+from docpage import PageImages, log_axis_x
 from PIL import Image
 
 from incandescent.imaging import auto_exposure_scale, lit_percentile
-from incandescent.io.docpage import PageImages, log_axis_x
 
 
 def test_log_axis_puts_the_ends_on_the_first_and_last_column():

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from incandescent.camera import Camera
-from incandescent.io.output import display_pixels
+from incandescent.imaging.pipeline import display_pixels
 from incandescent.renderer import RenderSettings, render
 from incandescent.spectra.paper2011 import paper_rgb
 from incandescent.volume import Volume

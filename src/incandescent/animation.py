@@ -25,10 +25,11 @@ from numpy.typing import NDArray
 from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
 from incandescent.imaging import DisplaySettings, auto_exposure_scale
+from incandescent.imaging.pipeline import display_pixels
 from incandescent.io.atomic import check_output, exclusive_lock
 from incandescent.io.formats import VIDEO_SUFFIXES
 from incandescent.io.images import write_png
-from incandescent.io.output import display_pixels, write_json
+from incandescent.io.output import write_json
 from incandescent.io.video import _check_fps, _check_frame, read_frames, write_gif, write_mp4
 from incandescent.renderer import RenderSettings, render
 from incandescent.volume import Volume

@@ -8,7 +8,7 @@ from incandescent.imaging.exposure import (
     lit_percentile,
     saturation_luminance,
 )
-from incandescent.imaging.pipeline import DisplaySettings, to_display
+from incandescent.imaging.pipeline import DisplaySettings, display_pixels, to_display
 from incandescent.imaging.tonemap import TONEMAPS, tonemap
 
 __all__ = [
@@ -16,6 +16,7 @@ __all__ = [
     "DisplaySettings",
     "auto_exposure_scale",
     "camera_exposure_scale",
+    "display_pixels",
     "ev_scale",
     "gamut_map",
     "lit_percentile",

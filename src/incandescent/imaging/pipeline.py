@@ -179,3 +179,13 @@ def to_display(
     # colours (negative components) can leave pixels with luminance <= 0 — black highlights.
     mapped = tonemap(gamut_map(rgb, settings.gamut, space), settings.tonemap)
     return quantize(srgb_oetf(mapped), settings.bits)
+
+
+def display_pixels(image, display: DisplaySettings | None = None) -> NDArray:
+    """8/16-bit display RGB of a rendered image (``HDRImage``): :func:`to_display` of its XYZ with
+    ``display`` (default: the image's space), or — for display-referred images (the 2011
+    paper's, whose values are already display values capped at 255) — those values (8-bit)."""
+    if image.display_rgb is not None:
+        return np.round(np.clip(image.display_rgb, 0.0, 255.0)).astype(np.uint8)
+    display = display or DisplaySettings(space=image.space)
+    return to_display(image.scene_xyz, display, hottest_K=image.metadata.get("max_temperature_K"))

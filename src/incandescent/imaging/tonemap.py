@@ -1,10 +1,11 @@
 """Tone mapping: compress scene-linear values (after exposure) to display-linear values.
 
-Every curve maps ``[0, ∞)`` monotonically into ``[0, 1]`` and is applied per RGB channel. Negative
-components (colours outside the RGB gamut) are mirrored, ``f(−x) = −f(x)``, instead of being
-clipped, so that :func:`incandescent.imaging.encode.gamut_map` — which runs after tone mapping —
-still sees them and can desaturate rather than hue-shift. Outputs are therefore in ``[−1, 1]``,
-and in ``[0, 1]`` for non-negative input.
+Every curve maps ``[0, ∞)`` monotonically into ``[0, 1]`` and is applied per RGB channel. The
+display pipeline (:func:`incandescent.imaging.to_display`) gamut-maps the linear HDR values
+*before* tone mapping (a per-channel curve on out-of-gamut colours can turn highlights black), so
+input here is normally non-negative. Negative components, if given, are mirrored,
+``f(−x) = −f(x)``, rather than clipped: outputs are in ``[−1, 1]``, and in ``[0, 1]`` for
+non-negative input.
 """
 
 from __future__ import annotations
@@ -75,7 +76,7 @@ def tonemap(rgb: ArrayLike, method: str = "filmic") -> NDArray[np.float64]:
     Returns
     -------
     Display-linear values of the same shape, in [0, 1] for non-negative input; negative input
-    is mirrored (see module notes) so out-of-gamut components survive for gamut mapping.
+    is mirrored (see module notes).
 
     Examples
     --------

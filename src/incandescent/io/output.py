@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from incandescent.imaging import DisplaySettings, to_display
+from incandescent.imaging import DisplaySettings
+from incandescent.imaging.pipeline import display_pixels
 from incandescent.io.formats import IMAGE_SUFFIXES as _IMAGE_SUFFIXES
 from incandescent.io.images import atomic_write, write_exr, write_png
 from incandescent.renderer.film import HDRImage
@@ -50,15 +51,6 @@ def save_image(
             path, display_pixels(image, display), overwrite=overwrite, metadata=_metadata(image)
         )
     raise ValueError(f"{path}: unsupported image format {path.suffix!r}; expected .exr or .png")
-
-
-def display_pixels(image: HDRImage, display: DisplaySettings | None = None) -> np.ndarray:
-    """8/16-bit display RGB: the display pipeline, or — for display-referred images (the 2011
-    paper's, whose values are already display values capped at 255) — those values (8-bit)."""
-    if image.display_rgb is not None:
-        return np.round(np.clip(image.display_rgb, 0.0, 255.0)).astype(np.uint8)
-    display = display or DisplaySettings(space=image.space)
-    return to_display(image.scene_xyz, display, hottest_K=image.metadata.get("max_temperature_K"))
 
 
 def write_json(path: str | Path, data: dict, overwrite: bool = False) -> Path:

@@ -104,7 +104,10 @@ def _check_npy(path: Path, limits: Limits) -> None:
 
 def _npz_header(archive: zipfile.ZipFile, name: str, where: str) -> ArrayHeader:
     """A member's header (inflating only its first bytes) checked against its stored size."""
-    member = archive.getinfo(f"{name}.npy")
+    names = archive.namelist()
+    if f"{name}.npy" not in names and name not in names:
+        raise ValueError(f"{where}: no such member in the archive")
+    member = archive.getinfo(f"{name}.npy" if f"{name}.npy" in names else name)
     with archive.open(member) as handle:
         header = _npy_header(handle, where)
         offset = handle.tell()
