@@ -57,3 +57,21 @@ def choice(value: str, name: str, valid: tuple[str, ...] | list[str]) -> str:
     if value not in valid:
         raise ValueError(f"unknown {name} {value!r}; expected one of: {', '.join(valid)}")
     return value
+
+
+def finite_scalar(value: float, name: str) -> float:
+    """Validate a finite real scalar (any sign)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number; got {type(value).__name__} {value!r}")
+    if not np.isfinite(value):
+        raise ValueError(f"{name} must be finite; got {value!r}")
+    return float(value)
+
+
+def nonnegative_scalar(value: float, name: str) -> float:
+    """Validate a finite scalar ≥ 0."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number; got {type(value).__name__} {value!r}")
+    if not np.isfinite(value) or value < 0:
+        raise ValueError(f"{name} must be a finite number >= 0; got {value!r}")
+    return float(value)

@@ -17,14 +17,6 @@ ISO_12232_Q = 0.65
 ISO_12232_SATURATION_CONSTANT = 78.0
 
 
-def _real_scalar(value: float, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a number; got {type(value).__name__} {value!r}")
-    if not np.isfinite(value):
-        raise ValueError(f"{name} must be finite; got {value!r}")
-    return float(value)
-
-
 #: Largest exposure compensation in stops either way: 2^±100 spans any luminance float32 holds.
 MAX_EV = 100.0
 
@@ -32,7 +24,7 @@ MAX_EV = 100.0
 def ev_scale(ev: float) -> float:
     """Exposure compensation multiplier ``2**ev`` (``ev`` in stops, |ev| ≤ MAX_EV; +1 doubles
     brightness)."""
-    stops = _real_scalar(ev, "exposure_ev")
+    stops = _validate.finite_scalar(ev, "exposure_ev")
     if abs(stops) > MAX_EV:
         raise ValueError(f"exposure_ev must be within ±{MAX_EV:g} stops; got {ev!r}")
     return float(2.0**stops)
@@ -95,7 +87,7 @@ def auto_exposure_scale(
     A finite positive float; 1.0 when no pixel is > 0 (all-black image).
     """
     lum = _validate.finite(_validate.real_array(luminance, "luminance"), "luminance")
-    pct = _real_scalar(percentile, "percentile")
+    pct = _validate.finite_scalar(percentile, "percentile")
     if not 0.0 < pct <= 100.0:
         raise ValueError(f"percentile must be in (0, 100]; got {percentile!r}")
     goal = _validate.positive_scalar(target, "target")

@@ -62,7 +62,7 @@ import importlib.util
 import logging
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -77,7 +77,6 @@ __all__ = [
     "HDF5_SUFFIXES",
     "NETCDF_SUFFIXES",
     "SUFFIXES",
-    "AnnotatedGridSource",
     "open_hdf5",
     "open_netcdf",
     "open_scientific",
@@ -122,14 +121,6 @@ LENGTH_UNITS = {
 
 
 @dataclass(frozen=True)
-class AnnotatedGridSource(GridSource):
-    """A :class:`GridSource` with one human-readable note per grid: the axis order used and where
-    it came from, units and any conversion, placement, or why the grid cannot be read."""
-
-    notes: Mapping[str, str] = field(default_factory=dict)
-
-
-@dataclass(frozen=True)
 class _Layout:
     """How one stored grid maps onto the renderer's arrays (found when the file is opened)."""
 
@@ -156,7 +147,7 @@ def open_scientific(path: str | Path, axes: str | None = None) -> GridSource:
     raise ValueError(f"{path}: not an HDF5 or NetCDF file name; expected {', '.join(SUFFIXES)}")
 
 
-def open_hdf5(path: str | Path, axes: str | None = None) -> AnnotatedGridSource:
+def open_hdf5(path: str | Path, axes: str | None = None) -> GridSource:
     """The 3-D numeric datasets of an HDF5 file, by path, read in x, y, z order and kelvin.
 
     Parameters
@@ -173,7 +164,7 @@ def open_hdf5(path: str | Path, axes: str | None = None) -> AnnotatedGridSource:
     return _source(path, layouts, lambda names: _h5_read(h5py, path, layouts, names))
 
 
-def open_netcdf(path: str | Path, axes: str | None = None) -> AnnotatedGridSource:
+def open_netcdf(path: str | Path, axes: str | None = None) -> GridSource:
     """The 3-D numeric variables of a NetCDF file, read in x, y, z order, kelvin and metres.
 
     Parameters
@@ -304,9 +295,9 @@ def _fmt(origin: tuple[float, ...] | None) -> str:
 
 def _source(
     path: Path, layouts: dict[str, _Layout], read: Callable[[Iterable[str]], Grids]
-) -> AnnotatedGridSource:
+) -> GridSource:
     notes = {name: _note(layout) for name, layout in layouts.items()}
-    return AnnotatedGridSource(path, tuple(layouts), read, notes)
+    return GridSource(path, tuple(layouts), read, notes)
 
 
 def _layout_for(path: Path, layouts: Mapping[str, _Layout], name: str) -> _Layout:

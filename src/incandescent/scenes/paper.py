@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -164,10 +164,7 @@ class PlateScene:
     n_frames: int = 250
     voxel_size_m: float = 0.01
     absorption_per_m: float = 2.0
-    _cache: dict = field(init=False, repr=False, compare=False, hash=False)
-
     def __post_init__(self) -> None:
-        object.__setattr__(self, "_cache", {})  # last simulated state; never shared by replace()
         shape = tuple(self.shape)
         if len(shape) != 3 or any(
             isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 2 for n in shape
@@ -188,7 +185,7 @@ class PlateScene:
             "cooling_rate_per_frame",
             "absorption_per_m",
         ):
-            _nonnegative(getattr(self, name), name)
+            _validate.nonnegative_scalar(getattr(self, name), name)
         if not math.isfinite(self.start_x_voxels):
             raise ValueError(f"start_x_voxels must be finite; got {self.start_x_voxels!r}")
         if self.plate_temperature_K <= self.ambient_K:
@@ -204,7 +201,7 @@ class PlateScene:
             _validate.positive_scalar(size, "plate_size_voxels")
 
     def replace(self, **changes) -> PlateScene:
-        """A copy with ``changes`` applied (and its own, empty, state cache)."""
+        """A copy with ``changes`` applied."""
         return replace(self, **changes)
 
     # --- the simulation ------------------------------------------------------------------------
@@ -220,17 +217,15 @@ class PlateScene:
             yield _interior(state).copy()
 
     def frame(self, index: int) -> NDArray[np.float32]:
-        """Frame ``index`` (a new array); a later index continues from the last call's state."""
+        """Frame ``index`` (a new array), simulated from frame 0: the scene is a value and keeps
+        no state between calls (iterate :meth:`frames` for a whole sequence)."""
         if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
             raise TypeError(f"frame index must be an integer; got {index!r}")
         if not 0 <= index < self.n_frames:
             raise IndexError(f"frame {index} out of range: the scene has {self.n_frames} frames")
-        last, state = self._cache.get("last", (-1, None))
-        if state is None or index < last:
-            last, state = -1, self._initial_state()
-        for n in range(last + 1, index + 1):
+        state = self._initial_state()
+        for n in range(index + 1):
             self._step(state, n)
-        self._cache["last"] = (index, state)
         return _interior(state).copy()
 
     def excess_heat(self, temperature: ArrayLike) -> float:
@@ -254,17 +249,16 @@ class PlateScene:
 
     def _heat(self, inner: NDArray[np.float32], n: int) -> None:
         """Relax the voxels the plate sweeps during frame n toward T_p (step 1), in place."""
-        if "yz" not in self._cache:
-            ny, nz = self.shape[1:]
-            a = _centred_coverage(ny, self.plate_size_voxels[0])
-            b = _centred_coverage(nz, self.plate_size_voxels[1])
-            self._cache["yz"] = self.heating_rate_per_frame * a[:, None] * b[None, :]
+        ny, nz = self.shape[1:]
+        a = _centred_coverage(ny, self.plate_size_voxels[0])
+        b = _centred_coverage(nz, self.plate_size_voxels[1])
+        yz = self.heating_rate_per_frame * a[:, None] * b[None, :]
         x = self.plate_x_voxels(n)
         edges = np.arange(self.shape[0], dtype=np.float64)
         sweep = (x - self.plate_thickness_voxels, x + self.speed_voxels_per_frame)
         swept = _overlap(edges, edges + 1.0, *sweep)
         for i in np.flatnonzero(swept):
-            weight = (-np.expm1(-swept[i] * self._cache["yz"])).astype(np.float32)
+            weight = (-np.expm1(-swept[i] * yz)).astype(np.float32)
             inner[i] += weight * (np.float32(self.plate_temperature_K) - inner[i])
 
     def _diffuse(self, state: NDArray[np.float32]) -> None:
@@ -310,10 +304,3 @@ class PlateScene:
 def _interior(state: NDArray[np.float32]) -> NDArray[np.float32]:
     """The grid inside the ghost layer (a view)."""
     return state[1:-1, 1:-1, 1:-1]
-
-
-def _nonnegative(value: float, name: str) -> None:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"{name} must be a number; got {type(value).__name__} {value!r}")
-    if not math.isfinite(value) or value < 0:
-        raise ValueError(f"{name} must be a finite number >= 0; got {value!r}")

@@ -200,15 +200,6 @@ def _sodium_fraction(value: ArrayLike) -> NDArray[np.float64]:
     return arr
 
 
-def _exponent(value: float) -> float:
-    """Validate the brightness exponent: a finite real number (0 and negatives allowed)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TypeError(f"exponent must be a number; got {type(value).__name__} {value!r}")
-    if not np.isfinite(value):
-        raise ValueError(f"exponent must be finite; got {value!r}")
-    return float(value)
-
-
 def paper_rgb(
     temperature_K: ArrayLike,
     sodium_fraction: ArrayLike = 0.0,
@@ -238,7 +229,7 @@ def paper_rgb(
     """
     temp = _validate.positive_temperature(temperature_K)
     frac = _sodium_fraction(sodium_fraction)
-    power = _exponent(exponent)
+    power = _validate.finite_scalar(exponent, "exponent")
     temp, frac = np.broadcast_arrays(temp, frac)
     lam_m = PAPER_WAVELENGTHS_NM * NM_TO_M
     spectrum = _planck_scaled(lam_m, temp[..., None])  # S + (19,), common factor per T
