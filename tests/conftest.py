@@ -8,11 +8,13 @@ from pathlib import Path
 
 import pytest
 
+from incandescent.renderer.backends.jit import cuda_problem, llvm_problem
+
 #: The doc scripts and their helpers (``scripts/docpage.py``) import each other as top-level
 #: modules, as ``python scripts/NAME.py`` runs them.
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-
-from incandescent.renderer.backends.jit import cuda_problem, llvm_problem
+#: Generators of test data, run by hand (they need the OS's pyopenvdb), not tests or doctests.
+collect_ignore_glob = ["data/*"]
 
 
 def _backend_param(name: str):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _backends import ALL_BACKENDS
 
 from incandescent.camera import Camera
 from incandescent.imaging.pipeline import display_pixels
@@ -23,7 +24,7 @@ def _slab(temperature_K: float, n_z: int = 10, sodium=None) -> Volume:
     )
 
 
-@pytest.mark.parametrize("backend", ["reference", "cpu"])
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 @pytest.mark.parametrize("temperature_K", [1000.0, 3000.0, 6500.0])
 @pytest.mark.parametrize("step", [0.25, 0.5, 0.9])
 def test_uniform_slab_sums_paper_colour_without_absorption(backend, temperature_K, step):
@@ -36,7 +37,7 @@ def test_uniform_slab_sums_paper_colour_without_absorption(backend, temperature_
     assert np.all(img.transmittance == 1.0)  # the paper ignores absorption
 
 
-@pytest.mark.parametrize("backend", ["reference", "cpu"])
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 def test_sums_are_capped_at_255(backend):
     s = RenderSettings(width=3, height=3, brightness="paper")
     rgb = render(_slab(6000.0, 40), FACE_ON, s, backend=backend).display_rgb
@@ -44,19 +45,19 @@ def test_sums_are_capped_at_255(backend):
     assert np.asarray(display_pixels(render(_slab(6000.0, 40), FACE_ON, s))).max() == 255
 
 
-def test_samples_below_paper_threshold_do_not_contribute():
+def test_samples_below_paper_threshold_do_not_contribute(jit_backend):
     cool = _slab(700.0)
     s = RenderSettings(width=3, height=3, brightness="paper")
-    assert render(cool, FACE_ON, s, backend="cpu").display_rgb.max() == 0.0
-    lowered = render(cool, FACE_ON, s.replace(paper_min_K=600.0), backend="cpu")
+    assert render(cool, FACE_ON, s, backend=jit_backend).display_rgb.max() == 0.0
+    lowered = render(cool, FACE_ON, s.replace(paper_min_K=600.0), backend=jit_backend)
     assert lowered.display_rgb.max() > 0.0
 
 
-def test_sodium_fraction_adds_the_590_nm_term():
+def test_sodium_fraction_adds_the_590_nm_term(jit_backend):
     """At 6500 K (near white) sodium's 590 nm light pulls the colour toward orange: less blue."""
     s = RenderSettings(width=3, height=3, brightness="paper", paper_gain=1e-8)
-    plain = render(_slab(6500.0), FACE_ON, s, backend="cpu").display_rgb[1, 1]
-    sodium = render(_slab(6500.0, sodium=1.0), FACE_ON, s, backend="cpu").display_rgb[1, 1]
+    plain = render(_slab(6500.0), FACE_ON, s, backend=jit_backend).display_rgb[1, 1]
+    sodium = render(_slab(6500.0, sodium=1.0), FACE_ON, s, backend=jit_backend).display_rgb[1, 1]
     assert sodium[2] / sodium.max() < 0.95 * plain[2] / plain.max()
     np.testing.assert_allclose(sodium, paper_rgb(6500.0, 1.0) * 1e-8 * 10.0, rtol=2e-4)
 

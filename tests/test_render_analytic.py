@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _backends import ALL_BACKENDS
 
 from incandescent.camera import Camera
 from incandescent.renderer import RenderSettings, render
 from incandescent.spectra import blackbody_xyz
 from incandescent.volume import Remap, Volume
-
-BACKENDS = ["reference", "cpu"]
 
 
 def _face_on(depth_m: float) -> Camera:
@@ -30,7 +29,7 @@ def _slab(temperature_K: float, kappa: float, shape=(4, 4, 10)) -> Volume:
     return Volume.from_arrays(np.full(shape, temperature_K), absorption=kappa, voxel_size_m=0.1)
 
 
-@pytest.mark.parametrize("backend", ["reference", "cpu"])
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 def test_empty_volume_renders_black(backend):
     cold = Volume.from_arrays(np.full((6, 6, 6), 300.0))  # default absorption: none below 500 K
     img = render(cold, settings=RenderSettings(width=16, height=12), backend=backend)
@@ -41,20 +40,20 @@ def test_empty_volume_renders_black(backend):
 
 @pytest.mark.parametrize("step", [0.13, 0.5, 1.0, 3.7])
 @pytest.mark.parametrize("optical_depth", [0.01, 0.3, 1.0, 5.0, 20.0])
-def test_uniform_slab_matches_kirchhoff_solution(optical_depth, step):
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_uniform_slab_matches_kirchhoff_solution(optical_depth, step, backend):
     """Face-on slab of thickness ℓ: Y = Y_bb(T)·(1 − e^{−κℓ}) for any step size (rtol 1e-3)."""
     thickness_m = 1.0
     kappa = optical_depth / thickness_m
     vol = _slab(2500.0, kappa)
     s = RenderSettings(width=5, height=5, step_voxels=step)
     expected = blackbody_xyz(2500.0) * -np.expm1(-optical_depth)
-    for backend in BACKENDS:
-        img = render(vol, _face_on(3.0), s, backend=backend)
-        np.testing.assert_allclose(img.xyz[2, 2], expected, rtol=1e-3, err_msg=backend)
-        np.testing.assert_allclose(img.xyz, np.broadcast_to(expected, img.xyz.shape), rtol=1e-3)
+    img = render(vol, _face_on(3.0), s, backend=backend)
+    np.testing.assert_allclose(img.xyz[2, 2], expected, rtol=1e-3, err_msg=backend)
+    np.testing.assert_allclose(img.xyz, np.broadcast_to(expected, img.xyz.shape), rtol=1e-3)
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 def test_thick_slab_saturates_to_blackbody_and_terminates_early(backend):
     vol = _slab(1800.0, 200.0)
     s = RenderSettings(width=3, height=3)
@@ -80,7 +79,7 @@ def _two_layer_solution(t_front, tau_front, t_back, tau_back) -> np.ndarray:
     return front + np.exp(-tau_front) * blackbody_xyz(t_back) * -np.expm1(-tau_back)
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 def test_hot_behind_cold_differs_from_cold_behind_hot_as_two_layer_solution(backend):
     """Each layer is 1 m thick; the one-voxel blend at the interface bounds the error (< 1 %)."""
     hot, cold, k_hot, k_cold = 2400.0, 1500.0, 0.8, 1.5
@@ -102,7 +101,7 @@ def _mirror_symmetric_field(n: int = 24) -> np.ndarray:
     return 0.5 * (temp + temp[::-1])  # exactly symmetric despite linspace rounding
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 @pytest.mark.parametrize("projection", ["perspective", "orthographic"])
 def test_mirror_symmetric_volume_renders_mirror_symmetric_image(backend, projection):
     temp = _mirror_symmetric_field()
@@ -121,7 +120,7 @@ def test_mirror_symmetric_volume_renders_mirror_symmetric_image(backend, project
     np.testing.assert_allclose(y, y[:, ::-1], rtol=2e-5, atol=1e-6 * y.max())
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 def test_jittered_mirror_symmetric_render_is_symmetric_within_jitter_noise(backend):
     temp = _mirror_symmetric_field()
     vol = Volume.from_arrays(temp)
@@ -131,7 +130,7 @@ def test_jittered_mirror_symmetric_render_is_symmetric_within_jitter_noise(backe
     assert np.abs(y - y[:, ::-1]).max() < 0.02 * y.max()
 
 
-def test_cutoff_makes_cold_voxels_vacuum():
+def test_cutoff_makes_cold_voxels_vacuum(jit_backend):
     """With a remap cutoff, voxels below it neither emit nor absorb: same as T = 0, κ = 0 there."""
     temp = np.full((4, 4, 10), 2000.0)
     temp[..., 5:] = 900.0  # front half (camera at +z) is cooler and absorbs
@@ -142,24 +141,26 @@ def test_cutoff_makes_cold_voxels_vacuum():
         vacuum_temp, absorption=np.where(temp < 1000.0, 0.0, 1.0), voxel_size_m=0.1
     )
     uncut = Volume.from_arrays(temp, absorption=1.0, voxel_size_m=0.1)
-    a, b, c = (render(v, _face_on(3.0), s, backend="cpu").xyz[1, 1] for v in (cut, vacuum, uncut))
+    a, b, c = (
+        render(v, _face_on(3.0), s, backend=jit_backend).xyz[1, 1] for v in (cut, vacuum, uncut)
+    )
     np.testing.assert_array_equal(a, b)
     assert a[1] > 1.2 * c[1]  # without the cutoff the 900 K half absorbs the light behind it
 
 
-def test_emission_scale_multiplies_emission_only():
+def test_emission_scale_multiplies_emission_only(jit_backend):
     vol = _slab(2200.0, 1.0)
     scaled = Volume.from_arrays(
         np.full((4, 4, 10), 2200.0), absorption=1.0, voxel_size_m=0.1, emission_scale=3.0
     )
     s = RenderSettings(width=3, height=3)
-    a = render(vol, _face_on(3.0), s, backend="cpu")
-    b = render(scaled, _face_on(3.0), s, backend="cpu")
+    a = render(vol, _face_on(3.0), s, backend=jit_backend)
+    b = render(scaled, _face_on(3.0), s, backend=jit_backend)
     np.testing.assert_allclose(b.xyz, 3.0 * a.xyz, rtol=1e-5)
     np.testing.assert_allclose(b.transmittance, a.transmittance, rtol=1e-6)
 
 
-@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 def test_depth_is_distance_to_first_emitting_sample(backend):
     """Slab faces at z = ±0.5 m, camera plane at z = 3 m: depth lies within the first step."""
     vol = _slab(2000.0, 1.0)
@@ -172,7 +173,7 @@ def test_depth_is_distance_to_first_emitting_sample(backend):
     assert np.all(np.isinf(empty.depth_m))
 
 
-def test_depth_matches_between_backends_and_reaches_the_exr(tmp_path):
+def test_depth_matches_between_backends_and_reaches_the_exr(tmp_path, jit_backend):
     from incandescent.io.images import read_exr
     from incandescent.io.output import save_image
 
@@ -180,7 +181,7 @@ def test_depth_matches_between_backends_and_reaches_the_exr(tmp_path):
     vol = Volume.from_arrays(temp)
     cam = Camera(eye=(0.4, 0.3, 2.5), target=(0.0, 0.0, 0.0), fov_deg=35.0)
     s = RenderSettings(width=12, height=9, supersample=2)
-    ref, fast = (render(vol, cam, s, backend=b) for b in ("reference", "cpu"))
+    ref, fast = (render(vol, cam, s, backend=b) for b in ("reference", jit_backend))
     hit = np.isfinite(ref.depth_m)
     assert hit.any() and (~hit).any()
     np.testing.assert_array_equal(np.isfinite(fast.depth_m), hit)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _backends import ALL_BACKENDS
 
 from incandescent.camera import Camera
 from incandescent.colorimetry import xyz_to_xy
@@ -23,7 +24,7 @@ def _slab(temperature_K: float, kappa: float, species: dict) -> Volume:
     )
 
 
-@pytest.mark.parametrize("backend", ["reference", "cpu"])
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 def test_clean_flame_lines_integrate_to_fraction_times_path(backend):
     """κ = 0: L = f·E_s(T)·ℓ exactly (optically thin lines, no continuum)."""
     vol = _slab(2200.0, 0.0, {"Na": 0.3})
@@ -32,7 +33,7 @@ def test_clean_flame_lines_integrate_to_fraction_times_path(backend):
     np.testing.assert_allclose(img.xyz[1, 1], expected, rtol=2e-4)
 
 
-@pytest.mark.parametrize("backend", ["reference", "cpu"])
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 def test_lines_and_soot_together_follow_the_slab_solution(backend):
     """L = (κB + fE)(1 − e^{−κℓ})/κ for a uniform slab."""
     kappa, f, t = 1.5, 0.2, 1900.0
@@ -42,9 +43,12 @@ def test_lines_and_soot_together_follow_the_slab_solution(backend):
     np.testing.assert_allclose(img.xyz[1, 1], eta * -np.expm1(-kappa) / kappa, rtol=5e-4)
 
 
-def test_pure_sodium_renders_the_d_line_chromaticity():
+def test_pure_sodium_renders_the_d_line_chromaticity(jit_backend):
     img = render(
-        _slab(2000.0, 0.0, {"Na": 1.0}), FACE_ON, RenderSettings(width=3, height=3), backend="cpu"
+        _slab(2000.0, 0.0, {"Na": 1.0}),
+        FACE_ON,
+        RenderSettings(width=3, height=3),
+        backend=jit_backend,
     )
     np.testing.assert_allclose(xyz_to_xy(img.xyz[1, 1]), [0.570, 0.429], atol=2e-3)
 
@@ -65,20 +69,20 @@ def test_species_cpu_matches_reference_and_skipping_is_exact(jit_backend):
     np.testing.assert_allclose(fast, dense, rtol=1e-5, atol=1e-7 * ref.max())
 
 
-def test_species_only_cells_are_not_skipped():
+def test_species_only_cells_are_not_skipped(jit_backend):
     """A sodium cloud with κ = 0 everywhere must not be skipped as empty space."""
     temp = np.full((16, 16, 16), 2000.0)
     sodium = np.zeros_like(temp)
     sodium[6:10, 6:10, 6:10] = 1.0
     vol = Volume.from_arrays(temp, absorption=0.0, species={"Na": sodium})
     s = RenderSettings(width=8, height=8, macrocell_voxels=4)
-    skipped = render(vol, settings=s, backend="cpu")
-    dense = render(vol, settings=s.replace(skip_empty=False), backend="cpu")
+    skipped = render(vol, settings=s, backend=jit_backend)
+    dense = render(vol, settings=s.replace(skip_empty=False), backend=jit_backend)
     assert skipped.xyz.max() > 0
     np.testing.assert_allclose(skipped.xyz, dense.xyz, rtol=1e-5, atol=1e-7 * dense.xyz.max())
 
 
-def test_unknown_species_is_a_clear_error():
+def test_unknown_species_is_a_clear_error(jit_backend):
     vol = _slab(2000.0, 1.0, {"Unobtainium": 0.5})
     with pytest.raises(ValueError, match="species 'Unobtainium', which the line table"):
-        render(vol, FACE_ON, RenderSettings(width=2, height=2), backend="cpu")
+        render(vol, FACE_ON, RenderSettings(width=2, height=2), backend=jit_backend)

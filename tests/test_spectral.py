@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _backends import ALL_BACKENDS
 
 from incandescent.camera import Camera
 from incandescent.colorimetry import xyz_to_xy
@@ -31,7 +32,7 @@ def test_bins_partition_the_blackbody_table():
     assert np.all(np.diff(bins.kappa_scale) < 0)  # soot absorbs more in the blue
 
 
-@pytest.mark.parametrize("backend", ["reference", "cpu"])
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
 def test_grey_kappa_spectral_mode_equals_table_mode(backend):
     vol = _random_volume(1)
     s = RenderSettings(width=9, height=7)
@@ -40,21 +41,21 @@ def test_grey_kappa_spectral_mode_equals_table_mode(backend):
     np.testing.assert_allclose(grey, lut, rtol=1e-3, atol=1e-6 * lut.max())
 
 
-def test_n_bin_result_converges_to_the_1nm_reference():
+def test_n_bin_result_converges_to_the_1nm_reference(jit_backend):
     """Measured: max error / max 0.040, 0.018, 0.0075 for 2, 4, 8 bins (0.0021 for 16)."""
     vol = _random_volume(2)
     s = RenderSettings(width=13, height=9, soot_alpha=1.39)
     ref = render(vol, CAMERA, s.replace(spectral_bins=1), backend="reference").xyz
     errors = []
     for n in (2, 4, 8):
-        fast = render(vol, CAMERA, s.replace(spectral_bins=n), backend="cpu").xyz
+        fast = render(vol, CAMERA, s.replace(spectral_bins=n), backend=jit_backend).xyz
         errors.append(np.abs(fast - ref).max() / ref.max())
     assert errors[-1] < 1e-2
     assert errors[2] < errors[1] < errors[0]
     assert errors[-1] < errors[0] / 4
 
 
-def test_soot_makes_transmitted_light_redder():
+def test_soot_makes_transmitted_light_redder(jit_backend):
     """A hot thin emitter seen through a cold soot layer: α > 0 removes more blue than red."""
     temp = np.full((2, 2, 40), 300.0)
     kappa = np.zeros_like(temp)
@@ -63,8 +64,8 @@ def test_soot_makes_transmitted_light_redder():
     vol = Volume.from_arrays(temp, absorption=kappa, voxel_size_m=0.025)
     cam = Camera(eye=(0, 0, 3.0), target=(0, 0, 0), projection="orthographic", ortho_height_m=0.02)
     s = RenderSettings(width=2, height=2, spectral_bins=8)
-    grey = render(vol, cam, s.replace(soot_alpha=0.0), backend="cpu").xyz[0, 0]
-    soot = render(vol, cam, s.replace(soot_alpha=1.39), backend="cpu").xyz[0, 0]
+    grey = render(vol, cam, s.replace(soot_alpha=0.0), backend=jit_backend).xyz[0, 0]
+    soot = render(vol, cam, s.replace(soot_alpha=1.39), backend=jit_backend).xyz[0, 0]
     assert xyz_to_xy(soot)[0] > xyz_to_xy(grey)[0] + 0.01  # redder (larger x)
 
 
