@@ -7,8 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
-
-from incandescent.renderer.backends.jit import cuda_problem, llvm_problem
+from _backends import backend_param
 
 #: The doc scripts and their helpers (``scripts/docpage.py``) import each other as top-level
 #: modules, as ``python scripts/NAME.py`` runs them.
@@ -17,15 +16,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 collect_ignore_glob = ["data/*"]
 
 
-def _backend_param(name: str):
-    problem = llvm_problem() if name == "cpu" else cuda_problem()
-    marks = [pytest.mark.skipif(problem is not None, reason=problem or "")]
-    if name == "cuda":
-        marks.append(pytest.mark.cuda)
-    return pytest.param(name, marks=marks, id=name)
-
-
-@pytest.fixture(params=[_backend_param("cpu"), _backend_param("cuda")])
+@pytest.fixture(params=[backend_param("cpu"), backend_param("cuda")])
 def jit_backend(request) -> str:
     """A Dr.Jit backend name: "cpu" always, "cuda" where a GPU is available."""
     return request.param
