@@ -70,10 +70,10 @@ def _cases() -> dict[str, Callable[[], tuple]]:
 
 
 def _demo_cases() -> dict[str, Callable[[], tuple]]:
-    from incandescent.scenes import COLOURED_FLAMES, SCENES
+    from incandescent.scenes import COLOURED_FLAME_NAMES, SCENES
 
     s = inc.RenderSettings(**SIZE)
-    names = ("plume", "sphere", *COLOURED_FLAMES, "sooty", "clean")
+    names = ("plume", "sphere", *COLOURED_FLAME_NAMES, "sooty", "clean")
     return {f"demo {n}": (lambda n=n: (SCENES[n].build(24), None, s)) for n in names}
 
 

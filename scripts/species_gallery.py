@@ -29,14 +29,13 @@ from incandescent.colorimetry import xyz_to_xy
 from incandescent.imaging import DisplaySettings, lit_percentile, to_display
 from incandescent.imaging.pipeline import display_pixels
 from incandescent.renderer import HDRImage, RenderSettings, render
+from incandescent.scenes import COLOURED_FLAME_NAMES, SCENES
 from incandescent.scenes.species import (
     CLEAN_SPECIES,
     COLOURED_FLAMES,
     COLOURED_SOOT_PER_M,
     SOOTY_KAPPA_PER_M,
     T_ON_K,
-    clean_flame,
-    coloured_flame,
     flame_camera,
     sooty_flame,
 )
@@ -69,12 +68,11 @@ QUICK = Sizes(width=24, height=32, n=24, dpi=30)
 
 # --- renders -----------------------------------------------------------------------------------
 def render_flames(sizes: Sizes, backend: str) -> dict[str, HDRImage]:
-    """Every coloured flame by name, then "sooty" and "clean"; one camera."""
+    """Every coloured flame by name, then "sooty" and "clean" (the scenes registry); one camera."""
     settings = RenderSettings(width=sizes.width, height=sizes.height)
     camera = flame_camera()
-    volumes = {f.name: coloured_flame(f.name, sizes.n) for f in COLOURED_FLAMES}
-    volumes["sooty"] = sooty_flame(sizes.n)
-    volumes["clean"] = clean_flame(sizes.n)
+    names = (*COLOURED_FLAME_NAMES, "sooty", "clean")
+    volumes = {name: SCENES[name].build(sizes.n) for name in names}
     return {name: render(v, camera, settings, backend=backend) for name, v in volumes.items()}
 
 

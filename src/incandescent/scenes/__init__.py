@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from incandescent.camera import Camera
 from incandescent.imaging import DisplaySettings
+from incandescent.scenes import species
 from incandescent.scenes.synthetic import (
     AMBIENT_K,
     plume,
@@ -25,7 +26,7 @@ from incandescent.volume import Volume
 
 __all__ = [
     "AMBIENT_K",
-    "COLOURED_FLAMES",
+    "COLOURED_FLAME_NAMES",
     "SCENES",
     "Scene",
     "plume",
@@ -35,8 +36,8 @@ __all__ = [
     "sparse_flame",
 ]
 
-#: The coloured flames, one per emitting species (``scenes.species.coloured_flame``).
-COLOURED_FLAMES = ("sodium", "lithium", "strontium", "copper", "barium")
+#: The coloured flames' names, one per emitting species (``scenes.species.COLOURED_FLAMES``).
+COLOURED_FLAME_NAMES = tuple(flame.name for flame in species.COLOURED_FLAMES)
 
 
 @dataclass(frozen=True)
@@ -93,7 +94,7 @@ SCENES: dict[str, Scene] = {
     "sphere": Scene("sphere", "the 2011 paper's soot sphere {n}³", _sphere, 64),
     **{
         name: _flame(name, functools.partial(_coloured, name), f"{name} flame {{n}}³")
-        for name in COLOURED_FLAMES
+        for name in COLOURED_FLAME_NAMES
     },
     "sooty": _flame("sooty", functools.partial(_species, "sooty_flame"), "sooty flame {n}³"),
     "clean": _flame("clean", functools.partial(_species, "clean_flame"), "clean flame {n}³"),

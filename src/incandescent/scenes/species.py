@@ -28,7 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from incandescent.camera import Camera
-from incandescent.scenes import plume_temperature
+from incandescent.scenes.synthetic import plume_temperature
 from incandescent.volume import Volume
 
 #: Temperature at which species and soot begin to follow the hot gas, K.
