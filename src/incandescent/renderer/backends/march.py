@@ -505,16 +505,15 @@ def march(inputs: MarchInputs, kind: str, progress=None) -> MarchResult:
             began = time.perf_counter()
             columns, n, compile_s = _march_chunk(inputs, m, K, chunk)
             seconds = max(time.perf_counter() - began - compile_s, 0.0)
-            parts.append(np.stack(columns, axis=1))
+            parts.append(columns)
             samples, march_s = samples + n, march_s + seconds
             rays = len(chunk[0])
             start, size = start + rays, _next_chunk(rays, seconds, upper_per_ray)
             if progress is not None:
                 progress(start / spec.n_total)
-    out = np.concatenate(parts) if len(parts) > 1 else parts[0]
-    return MarchResult(
-        out[:, :3], out[:, 3], samples, march_s, device_name(kind), out[:, 4], order[2]
-    )
+    columns = parts[0] if len(parts) == 1 else [np.concatenate(c) for c in zip(*parts, strict=True)]
+    xyz = np.stack(columns[:3], axis=1)
+    return MarchResult(xyz, columns[3], samples, march_s, device_name(kind), columns[4], order[2])
 
 
 def _compile_seconds(entry: dict) -> float:
