@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Set up incandescent from scratch: a .venv with the package and its dev tools, and — for the CPU
-# backend — a shared libLLVM >= 17 (Debian/Ubuntu: libllvm19; needs root or sudo) when missing.
+# backend — a shared libLLVM >= 17 (Debian/Ubuntu: libllvm19; needs root or sudo) when missing,
+# and OpenVDB's Python module for the system Python (python3-openvdb) to read .vdb files.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -21,6 +22,20 @@ if ! have_llvm; then
     else
         echo "setup: warning: no libLLVM >= 17 found; the cpu backend will not run" \
              "(macOS: brew install llvm; see README)" >&2
+    fi
+fi
+
+# OpenVDB's own reader for .vdb files (active tiles, half floats, vectors): its Python module is
+# built for the system Python, which runs it in a worker (src/incandescent/io/openvdb.py).
+if ! env -u PYTHONPATH /usr/bin/python3 -c "import pyopenvdb" >/dev/null 2>&1; then
+    if command -v apt-get >/dev/null; then
+        sudo=""; [ "$(id -u)" -eq 0 ] || sudo="sudo"
+        echo "setup: installing python3-openvdb (OpenVDB reads .vdb files exactly)"
+        $sudo apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq python3-openvdb >/dev/null
+    else
+        echo "setup: note: OpenVDB's Python module not found; .vdb files are read with tinyvdb" \
+             "(no active tiles); macOS: brew install openvdb (see README)" >&2
     fi
 fi
 

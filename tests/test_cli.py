@@ -343,12 +343,28 @@ def test_info_lists_grids_and_warns_when_temperature_is_not_kelvin(tmp_path):
     assert _run("info", tmp_path / "none.vdb").exit_code == 2
 
 
-def test_info_on_a_blender_vdb_names_unreadable_grids():
+def test_info_on_a_blender_vdb_names_unreadable_grids(monkeypatch):
+    """Through tinyvdb (OpenVDB switched off) the vector grid cannot be read, and info says so."""
     pytest.importorskip("tinyvdb")
+    from incandescent.io import openvdb
+
+    monkeypatch.setattr(openvdb, "interpreter", lambda: None)
     cache = Path(__file__).resolve().parent / "data" / "blender_fire_0010.vdb"
     text = " ".join(_run("info", cache).output.split())
     assert "flame" in text and "0.9844" in text
     assert "velocity: cannot be read: holds vec3s values" in text
+
+
+def test_info_on_a_blender_vdb_through_openvdb_reads_every_grid():
+    from incandescent.io import openvdb
+
+    if openvdb.problem():
+        pytest.skip(openvdb.problem())
+    cache = Path(__file__).resolve().parent / "data" / "blender_fire_0010.vdb"
+    result = _run("info", cache)
+    text = " ".join(result.output.split())
+    assert result.exit_code == 0 and "cannot be read" not in text
+    assert "velocity │ vec3s" in text and "density │ float" in text
 
 
 def test_render_hdf5_with_declared_axis_order(tmp_path):

@@ -1,5 +1,7 @@
-"""OpenVDB / NanoVDB input (io.vdb): reference files from libopenvdb, files written by tinyvdb, a
-real Blender Mantaflow fire cache, an error battery and a bounded fuzz of the reader."""
+"""OpenVDB / NanoVDB input through tinyvdb (io.vdb): the reader used where OpenVDB itself is not
+installed, and always for NanoVDB. Reference files from libopenvdb, files written by tinyvdb, a
+real Blender Mantaflow fire cache, an error battery and a bounded fuzz of the reader. OpenVDB's
+own reader (the default where installed) is tested in tests/test_openvdb.py."""
 
 from __future__ import annotations
 
@@ -13,7 +15,13 @@ from hypothesis import strategies as st
 
 tinyvdb = pytest.importorskip("tinyvdb")
 
-from incandescent.io import vdb  # noqa: E402
+from incandescent.io import openvdb, vdb  # noqa: E402
+
+
+@pytest.fixture(autouse=True)
+def _tinyvdb_only(monkeypatch):
+    """This file is tinyvdb's contract: OpenVDB, where installed, is switched off."""
+    monkeypatch.setattr(openvdb, "interpreter", lambda: None)
 
 DATA = Path(__file__).parent / "data"
 TWO_GRIDS = DATA / "openvdb_two_grids.vdb"

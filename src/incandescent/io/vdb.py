@@ -66,6 +66,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from incandescent.io import openvdb
 from incandescent.io.formats import VDB_SUFFIXES
 
 SUFFIXES = VDB_SUFFIXES
@@ -173,10 +174,16 @@ class DenseGrid:
 
 
 def list_grids(path: str | Path) -> list[GridInfo]:
-    """Describe every grid in a ``.vdb`` or ``.nvdb`` file (errors name the file and problem)."""
+    """Describe every grid in a ``.vdb`` or ``.nvdb`` file (errors name the file and problem).
+
+    ``.vdb`` files are read with OpenVDB itself where it is installed (:mod:`.openvdb`), else
+    with tinyvdb."""
     path = _checked_path(path)
     if path.suffix.lower() == ".nvdb":
         return [_nano_info(path, segment) for segment in _nano_segments(path)]
+    if openvdb.interpreter():
+        _vdb_bytes(path)
+        return [_openvdb_info(grid) for grid in openvdb.describe(path)]
     with _open_vdb(path) as handle:
         return [_vdb_info(path, grid) for grid in _vdb_grids(path, handle)]
 
@@ -200,6 +207,8 @@ def read_grids(
     names = _unique_names(path, names)
     if path.suffix.lower() == ".nvdb":
         return _nano_read_isolated(path, names, max_voxels)
+    if openvdb.interpreter():
+        return _openvdb_read(path, names, max_voxels)
     with _open_vdb(path) as handle:
         grids = {g.name: g for g in _vdb_grids(path, handle)}
         chosen = {name: _pick(path, grids, name) for name in names}
@@ -210,6 +219,63 @@ def read_grids(
             name: _densify_vdb(path, chosen[name], infos[name], box, voxel, translation)
             for name in names
         }
+
+
+# --------------------------------------------------------------------------------------------
+# OpenVDB itself (.vdb), through the worker of io/openvdb.py
+
+
+def _openvdb_info(grid: dict) -> GridInfo:
+    """A :class:`GridInfo` from the worker's description of one grid."""
+    meta = {k: tuple(v) if isinstance(v, list) else v for k, v in grid["metadata"].items()}
+    matrix = _matrix(np.asarray(grid["matrix"])) if "matrix" in grid else None
+    voxel = _floats(grid.get("voxel_size", (0.0, 0.0, 0.0)))
+    common = dict(
+        name=str(grid["name"]),
+        value_type=str(grid["type"]),
+        type_name=str(grid["type"]),
+        index_to_world=matrix,
+        voxel_size_m=voxel,
+        translation_m=_floats(row[3] for row in matrix[:3]) if matrix else (0.0, 0.0, 0.0),
+        half_float=_optional_bool(meta.get("is_saved_as_half_float")),
+        compression=_optional_str(meta.get("file_compression")),
+        grid_class=_optional_str(meta.get("class")),
+    )
+    problem = grid.get("unreadable")
+    if problem is None and grid["type"] == "bool":
+        problem = "holds bool values (a mask), not a field the renderer reads"
+    if problem is not None:
+        return _info_from_metadata(meta, common, problem)
+    background = grid.get("background")
+    return GridInfo(
+        active_voxels=int(grid["active_voxels"]),
+        index_min=_ints(grid["index_min"]) if "index_min" in grid else None,
+        index_max=_ints(grid["index_max"]) if "index_max" in grid else None,
+        value_min=grid.get("min"),
+        value_max=grid.get("max"),
+        background=background if isinstance(background, float) else None,
+        unreadable=_transform_problem(matrix, voxel),
+        **common,  # type: ignore[arg-type]
+    )
+
+
+def _openvdb_read(path: Path, names: list[str], max_voxels: int) -> dict[str, DenseGrid]:
+    """Grids densified onto the union of their active boxes by OpenVDB (tiles expanded)."""
+    infos = {info.name: info for info in list_grids(path)}
+    chosen = {name: _pick(path, infos, name) for name in names}
+    for name, info in chosen.items():
+        if info.unreadable:
+            raise ValueError(f"{path}: grid {name!r} {info.unreadable}")
+    box = _union_box(path, chosen, max_voxels)
+    voxel, translation = _common_transform(path, chosen)
+    arrays = openvdb.dense(path, names, *box)
+    out = {}
+    for name, info in chosen.items():
+        _check_values(path, name, arrays[name])
+        index_min, origin, source = _dense_info(path, info, box, voxel, translation)
+        background = float(info.background or 0.0)
+        out[name] = DenseGrid(name, arrays[name], origin, voxel, background, index_min, source)
+    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -358,9 +424,9 @@ def _library_error(path: Path, what: str, error: BaseException) -> ValueError:
     return ValueError(f"{path}: {what} ({detail})")
 
 
-@contextmanager
-def _open_vdb(path: Path) -> Iterator[Any]:
-    tinyvdb = _library()
+def _vdb_bytes(path: Path) -> bytes:
+    """The file's bytes, with its magic number and header counts checked (before any library
+    trusts them)."""
     try:
         data = path.read_bytes()
     except OSError as error:
@@ -368,6 +434,13 @@ def _open_vdb(path: Path) -> Iterator[Any]:
     if len(data) < 8 or data[:4] != b"\x20\x42\x44\x56":  # OpenVDB magic 0x56444220 little-endian
         raise ValueError(f"{path}: not an OpenVDB file (no OpenVDB magic number at its start)")
     _check_vdb_header(path, data)
+    return data
+
+
+@contextmanager
+def _open_vdb(path: Path) -> Iterator[Any]:
+    tinyvdb = _library()
+    data = _vdb_bytes(path)
     try:
         handle = tinyvdb.from_bytes(data)
         handle.read_grids()
@@ -387,15 +460,17 @@ _VDB_MIN_GRID_BYTES = 40
 
 
 def _check_vdb_header(path: Path, data: bytes) -> None:
-    """Check the counts in the file header before tinyvdb trusts them.
+    """Check the counts and grid offsets in the file header before a library trusts them.
 
     tinyvdb 0.9 allocates for the grid count before reading any grid: three flipped bytes in the
-    count made it commit 3.6 GB and spend 6 s. Header layout (file versions 220–225): magic,
-    version, library version, has-grid-offsets flag, UUID, file metadata (count; name, type name
-    and value, each length-prefixed), grid count.
+    count made it commit 3.6 GB and spend 6 s; OpenVDB spends minutes on a file cut short inside
+    a grid. Header layout (file versions 220–225): magic, version, library version, has-grid-offsets
+    flag, UUID, file metadata (count; name, type name and value, each length-prefixed), grid
+    count, then per grid its name, type and parent (length-prefixed) and — with offsets — the
+    int64 positions of its header, data blocks and end, where the next grid's descriptor starts.
     """
     try:
-        _magic, version, *_ = _VDB_HEADER.unpack_from(data, 0)
+        _magic, version, _major, _minor, offsets, _uuid = _VDB_HEADER.unpack_from(data, 0)
         if not 220 <= version <= 225:
             raise ValueError(f"OpenVDB file format version {version}; tinyvdb reads 220–225")
         offset = _VDB_HEADER.size
@@ -409,8 +484,25 @@ def _check_vdb_header(path: Path, data: bytes) -> None:
         (grids,) = struct.unpack_from("<i", data, offset)
         if not 0 <= grids <= (len(data) - offset) // _VDB_MIN_GRID_BYTES:
             raise ValueError(f"a grid count of {grids} in {len(data)} bytes")
+        if offsets:
+            _check_grid_offsets(data, offset + 4, grids)
     except (struct.error, ValueError) as error:
         raise _library_error(path, "not a readable OpenVDB file, corrupt header", error) from None
+
+
+def _check_grid_offsets(data: bytes, offset: int, grids: int) -> None:
+    """Every grid's descriptor, and its end within the file (a cut file ends early)."""
+    for index in range(grids):
+        for _ in range(3):  # name, type, parent
+            (size,) = struct.unpack_from("<I", data, offset)
+            offset += 4 + size
+        start, blocks, end = struct.unpack_from("<qqq", data, offset)
+        if not offset < start <= blocks <= end <= len(data):
+            raise ValueError(
+                f"grid {index} spans bytes {start}–{end} of a {len(data)}-byte file: truncated "
+                "or corrupt"
+            )
+        offset = end
 
 
 def _vdb_grids(path: Path, handle: Any) -> list[Any]:
@@ -544,8 +636,8 @@ def _tile_problem(metadata: dict, seen: int) -> str | None:
     if isinstance(recorded, int) and not isinstance(recorded, bool) and recorded != seen:
         return (
             f"has {recorded} active voxels but only {seen} are stored in leaf nodes; the rest "
-            "are active tiles, which tinyvdb 0.9 reads as background — densify the grid first "
-            "(OpenVDB tools::densify, Houdini VDB Activate + densify)"
+            "are active tiles, which tinyvdb 0.9 (used because OpenVDB is not installed) reads "
+            f"as background; {openvdb.INSTALL_HINT}"
         )
     return None
 

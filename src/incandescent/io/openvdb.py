@@ -1,0 +1,168 @@
+"""Reading ``.vdb`` files with OpenVDB itself, through a worker process (``io/openvdb_worker.py``).
+
+OpenVDB's Python module ``pyopenvdb`` comes with the operating system (Debian/Ubuntu
+``apt-get install python3-openvdb``; ``scripts/setup.sh`` installs it; macOS: ``brew install
+openvdb``) and is built for the system's Python and its NumPy 1.x, so it cannot be imported here.
+The worker runs under that interpreter — ``$INCANDESCENT_OPENVDB_PYTHON``, else the first of
+:data:`INTERPRETERS` that imports pyopenvdb — with a clean environment, one request a line. It is
+started once and reused; if it dies (OpenVDB can crash on a corrupt file) the read is a
+``ValueError`` naming the file and the next read starts a new worker.
+
+OpenVDB expands active tiles at every tree level, reads half floats as float and decodes zip and
+Blosc itself, so a grid reads exactly as OpenVDB reads it. Where no such interpreter exists,
+:mod:`incandescent.io.vdb` falls back to tinyvdb (leaf voxels only) and says how to install
+OpenVDB when a grid has tiles.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import select
+import subprocess
+import tempfile
+import threading
+from pathlib import Path
+
+import numpy as np
+
+ENV_VAR = "INCANDESCENT_OPENVDB_PYTHON"
+#: System interpreters that may have pyopenvdb (Debian/Ubuntu, Homebrew on Intel and Apple).
+INTERPRETERS = ("/usr/bin/python3", "/usr/local/bin/python3", "/opt/homebrew/bin/python3")
+WORKER = Path(__file__).with_name("openvdb_worker.py")
+#: Seconds the worker may take to start (import pyopenvdb and NumPy).
+START_TIMEOUT_S = 60.0
+INSTALL_HINT = (
+    "install OpenVDB's Python module for the system Python (Debian/Ubuntu: apt-get install "
+    "python3-openvdb; macOS: brew install openvdb) or point INCANDESCENT_OPENVDB_PYTHON at an "
+    "interpreter that has pyopenvdb"
+)
+
+
+def _clean_env() -> dict[str, str]:
+    """The environment without this project's Python settings (its NumPy must not leak in)."""
+    drop = ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "PYTHONSTARTUP")
+    env = {k: v for k, v in os.environ.items() if k not in drop}
+    env["PYTHONNOUSERSITE"] = "1"
+    return env
+
+
+@functools.cache
+def interpreter() -> str | None:
+    """The interpreter the worker runs under, or None when none has pyopenvdb."""
+    given = os.environ.get(ENV_VAR)
+    for candidate in (given,) if given else INTERPRETERS:
+        if not candidate or not os.access(candidate, os.X_OK):
+            continue
+        try:
+            probe = subprocess.run(
+                [candidate, "-c", "import pyopenvdb, numpy"],
+                env=_clean_env(),
+                capture_output=True,
+                timeout=60,
+            )
+        except (OSError, subprocess.TimeoutExpired):
+            continue
+        if probe.returncode == 0:
+            return candidate
+    return None
+
+
+def problem() -> str | None:
+    """None when OpenVDB can be used, else one sentence saying what to install."""
+    return None if interpreter() else f"OpenVDB's Python module was not found; {INSTALL_HINT}"
+
+
+class _Worker:
+    """One worker process and its pipes; replies are JSON lines."""
+
+    def __init__(self, python: str) -> None:
+        self.process = subprocess.Popen(
+            [python, str(WORKER)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+            env=_clean_env(),
+        )
+        hello = self._reply()
+        if not hello or not hello.get("ok"):
+            raise RuntimeError(f"the OpenVDB worker did not start: {hello}")
+
+    def _reply(self, timeout_s: float = START_TIMEOUT_S) -> dict | None:
+        """The next reply line; None when the worker died or did not answer within the time."""
+        assert self.process.stdout is not None
+        ready, _, _ = select.select([self.process.stdout], [], [], timeout_s)
+        if not ready:
+            return None
+        line = self.process.stdout.readline()
+        return json.loads(line) if line else None
+
+    def ask(self, request: dict, timeout_s: float) -> dict | None:
+        """The reply, or None when the worker died or hung on the way."""
+        assert self.process.stdin is not None
+        try:
+            self.process.stdin.write(json.dumps(request) + "\n")
+            self.process.stdin.flush()
+            return self._reply(timeout_s)
+        except (BrokenPipeError, ValueError):
+            return None
+
+    def close(self) -> None:
+        self.process.kill()
+        self.process.wait()
+
+
+def read_timeout_s(path: Path) -> float:
+    """How long a read of ``path`` may take before the worker is taken to hang (OpenVDB can
+    spend minutes on a corrupt block): generous for real files, ~100 MB/s and 30 s more."""
+    return 30.0 + path.stat().st_size / 100e6
+
+
+_LOCK = threading.Lock()
+_WORKERS: dict[str, _Worker] = {}  # the reusable worker per interpreter
+
+
+def ask(path: Path, request: dict) -> dict:
+    """Send ``request`` to the worker; a failure or a crash is a ValueError naming ``path``."""
+    python = interpreter()
+    if python is None:
+        raise ValueError(f"{path}: OpenVDB is not available; {INSTALL_HINT}")
+    with _LOCK:
+        worker = _WORKERS.get(python)
+        if worker is None or worker.process.poll() is not None:
+            worker = _WORKERS[python] = _Worker(python)
+        timeout_s = read_timeout_s(path)
+        reply = worker.ask(request, timeout_s)
+        if reply is None:
+            hung = worker.process.poll() is None
+            worker.close()
+            del _WORKERS[python]
+            what = f"did not finish within {timeout_s:.0f} s" if hung else "crashed"
+            raise ValueError(
+                f"{path}: OpenVDB {what} reading this file: it is corrupt or truncated"
+            )
+    if not reply.get("ok"):
+        raise ValueError(f"{path}: OpenVDB cannot read it ({reply.get('error')})")
+    return reply
+
+
+def describe(path: Path) -> list[dict]:
+    """Every grid of the file as the worker describes it (see ``openvdb_worker``)."""
+    return ask(path, {"op": "describe", "path": str(path.resolve())})["grids"]
+
+
+def dense(path: Path, names: list[str], lo, hi) -> dict[str, np.ndarray]:
+    """The grids ``names`` on the inclusive index box [lo, hi], float32 (vec3: (…, 3))."""
+    with tempfile.TemporaryDirectory(prefix="incandescent-vdb-") as folder:
+        request = {
+            "op": "dense",
+            "path": str(path.resolve()),
+            "names": list(names),
+            "lo": [int(v) for v in lo],
+            "hi": [int(v) for v in hi],
+            "out": folder,
+        }
+        files = ask(path, request)["files"]
+        return {name: np.load(files[name], allow_pickle=False) for name in names}

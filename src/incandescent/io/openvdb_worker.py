@@ -1,0 +1,139 @@
+"""The OpenVDB worker: reads ``.vdb`` files with OpenVDB's own Python module, in another process.
+
+Debian/Ubuntu's ``python3-openvdb`` (module ``pyopenvdb``, OpenVDB 10) is built for the operating
+system's Python and its NumPy 1.x, so it cannot be imported into the project's environment.
+:mod:`incandescent.io.openvdb` runs *this file* under that interpreter (it imports only the
+standard library, NumPy and pyopenvdb — never the ``incandescent`` package) and talks to it in
+JSON lines on stdin/stdout. Dense arrays come back as ``.npy`` files in a folder the client gives
+and removes (read with ``allow_pickle=False``: nothing is ever unpickled).
+
+Requests: ``{"op": "describe", "path": P}`` → ``{"grids": [...]}`` (name, type, active voxel
+count including active tiles, inclusive index box, value range — vector grids: of the magnitude —,
+background, index→world matrix, metadata, and why a grid cannot be read where it cannot);
+``{"op": "dense", "path": P, "names": [...], "lo": [i, j, k], "hi": [i, j, k], "out": DIR}`` →
+``{"files": {name: file}}``: each grid on the inclusive box, background outside its active
+values, tiles expanded by OpenVDB (``copyToArray``); vec3 grids as (nx, ny, nz, 3).
+Every reply has ``"ok"``; failures carry ``"error"``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from typing import Any
+
+import numpy as np
+
+#: pyopenvdb, imported by :func:`main` (this file is also importable, e.g. by doctest collection,
+#: where pyopenvdb is absent).
+vdb: Any = None
+
+#: Value types this build of pyopenvdb can read (Debian's has float, bool and vec3s grids).
+READABLE = {"float", "vec3s", "bool"}
+
+
+def _jsonable(value):
+    if isinstance(value, (bool, int, float, str)) or value is None:
+        return value
+    if isinstance(value, (tuple, list)):
+        return [_jsonable(v) for v in value]
+    return str(value)
+
+
+def _matrix(transform) -> list[list[float]]:
+    """4×4 index→world matrix (column vectors) from three unit steps and the origin."""
+    origin = np.asarray(transform.indexToWorld((0, 0, 0)), dtype=np.float64)
+    columns = [
+        np.asarray(transform.indexToWorld(e), dtype=np.float64) - origin
+        for e in ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+    ]
+    m = np.eye(4)
+    m[:3, :3] = np.stack(columns, axis=1)
+    m[:3, 3] = origin
+    return m.tolist()
+
+
+def _value_range(grid, value_type: str):
+    """(min, max) of the active values, tiles included; of the magnitude for vectors (OpenVDB's
+    own evalMinMax orders vectors lexicographically, which is no range)."""
+    if value_type == "vec3s":
+        magnitude = np.array([np.linalg.norm(item["value"]) for item in grid.citerOnValues()])
+        return float(magnitude.min()), float(magnitude.max())
+    low, high = grid.evalMinMax()
+    return float(low), float(high)
+
+
+def _describe_grid(path: str, meta) -> dict:
+    metadata = {str(k): _jsonable(v) for k, v in dict(meta.metadata).items()}
+    info = {"name": meta.name, "type": meta.valueTypeName, "metadata": metadata}
+    if meta.valueTypeName not in READABLE:
+        info["unreadable"] = (
+            f"holds {meta.valueTypeName} values, which OpenVDB's Python module (pyopenvdb) "
+            "does not read; only float, half (read as float) and vec3s grids are read"
+        )
+        return info
+    grid = vdb.read(path, meta.name)
+    count = int(grid.activeVoxelCount())
+    info.update(
+        active_voxels=count,
+        matrix=_matrix(grid.transform),
+        voxel_size=list(grid.transform.voxelSize()),
+        linear=bool(grid.transform.isLinear),
+    )
+    background = grid.background
+    info["background"] = list(background) if isinstance(background, tuple) else float(background)
+    if count:
+        lo, hi = grid.evalActiveVoxelBoundingBox()
+        info.update(index_min=list(lo), index_max=list(hi))
+        if meta.valueTypeName != "bool":
+            info["min"], info["max"] = _value_range(grid, meta.valueTypeName)
+    return info
+
+
+def describe(request: dict) -> dict:
+    path = request["path"]
+    return {"grids": [_describe_grid(path, meta) for meta in vdb.readAllGridMetadata(path)]}
+
+
+def dense(request: dict) -> dict:
+    path, lo, hi = request["path"], tuple(request["lo"]), tuple(request["hi"])
+    shape = tuple(int(h) - int(l) + 1 for l, h in zip(lo, hi, strict=True))
+    files = {}
+    for i, name in enumerate(request["names"]):
+        grid = vdb.read(path, name)
+        vector = grid.valueTypeName == "vec3s"
+        background = grid.background
+        array = np.empty(shape + ((3,) if vector else ()), dtype=np.float32)
+        array[...] = background
+        grid.copyToArray(array, ijk=lo)
+        target = os.path.join(request["out"], f"grid_{i}.npy")
+        np.save(target, array, allow_pickle=False)
+        files[name] = target
+    return {"files": files}
+
+
+OPS = {"describe": describe, "dense": dense}
+
+
+def main() -> None:  # noqa: D103
+    global vdb
+    try:
+        import pyopenvdb as vdb
+    except ImportError as error:
+        print(json.dumps({"ok": False, "error": f"cannot import pyopenvdb: {error}"}), flush=True)
+        sys.exit(3)
+    version = list(vdb.LIBRARY_VERSION)
+    print(json.dumps({"ok": True, "ready": True, "openvdb": version}), flush=True)
+    for line in sys.stdin:
+        try:
+            request = json.loads(line)
+            reply = OPS[request["op"]](request)
+            reply["ok"] = True
+        except Exception as error:  # every failure goes back to the client as text
+            reply = {"ok": False, "error": f"{type(error).__name__}: {error}"}
+        print(json.dumps(reply), flush=True)
+
+
+if __name__ == "__main__":
+    main()
