@@ -86,7 +86,7 @@ def test_render_npz_grids_png_and_flags(tmp_path):
     )
     assert result.exit_code == 0, result.output
     assert Image.open(out).size == (10, 8)
-    assert json.loads(stats.read_text())["absorption"] == "grid"
+    assert json.loads(stats.read_text())["absorption"] == "grid ('absorption')"
     stats.unlink()
     result = _run(
         "render",
@@ -329,7 +329,8 @@ def test_render_a_blender_fire_vdb_with_the_blender_preset(tmp_path):
     assert result.exit_code == 0, result.output
     rgb = read_exr(out)[0]
     assert np.isfinite(rgb).all() and rgb.max() > 0
-    assert json.loads(stats.read_text())["absorption"] == "grid"  # κ from Blender's density
+    absorption = json.loads(stats.read_text())["absorption"]  # κ from Blender's density, named
+    assert absorption.startswith("grid (preset blender") and "κ = 1 1/m · 'density'" in absorption
 
 
 def test_info_lists_grids_and_warns_when_temperature_is_not_kelvin(tmp_path):

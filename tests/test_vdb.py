@@ -439,3 +439,15 @@ def test_a_crash_in_the_isolated_nanovdb_reader_is_a_clear_error(tmp_path):
     with pytest.raises(ValueError, match="crash.nvdb: the NanoVDB reader .tinyvdb. crashed"):
         vdb._run_isolated(path, os.abort)
     assert vdb._run_isolated(path, abs, -3) == 3  # a fresh worker after the crash
+
+
+def test_a_grid_a_flag_names_but_cannot_be_read_stops_with_the_reason():
+    """No silent fallback and no misleading "no such grid": through tinyvdb the Blender cache's
+    shadow grid is all active tiles; naming it as the temperature stops with that reason."""
+    from incandescent.config import GridNames, VolumeSection
+    from incandescent.volume import Remap
+    from incandescent.volume.assemble import volume_from_section
+
+    spec = VolumeSection(path=BLENDER, grids=GridNames(temperature="shadow"))
+    with pytest.raises(ValueError, match=r"grid 'shadow' is needed but has 65536 active voxels"):
+        volume_from_section(spec, Remap())

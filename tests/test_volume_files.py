@@ -27,7 +27,7 @@ def test_npz_round_trip_with_named_grids(tmp_path):
     source = open_grids(path)
     assert set(source.names) == {"temperature", "absorption"}
     vol = load_volume(path)
-    assert vol.shape == (3, 4, 5) and vol.absorption_source == "grid"
+    assert vol.shape == (3, 4, 5) and vol.absorption_source == "grid ('absorption')"
 
 
 def test_npz_with_declared_axes_is_transposed(tmp_path):

@@ -246,15 +246,20 @@ def _vdb_source(path: Path) -> GridSource:
     onto the union of their active boxes, placed by the file's transform."""
     from incandescent.io import vdb
 
-    readable = tuple(g.name for g in vdb.list_grids(path) if g.unreadable is None)
+    infos = vdb.list_grids(path)
+    unreadable = {g.name: g.unreadable for g in infos if g.unreadable is not None}
 
     def read(names: Iterable[str]) -> Grids:
-        dense = vdb.read_grids(path, list(names))
+        names = list(names)
+        for name in names:  # a grid a role needs that exists but cannot be read: say why
+            if name in unreadable:
+                raise ValueError(f"{path}: grid {name!r} is needed but {unreadable[name]}")
+        dense = vdb.read_grids(path, names)
         first = next(iter(dense.values()))
         arrays = {name: grid.values for name, grid in dense.items()}
         return Grids(arrays, first.origin_m, first.voxel_size_m)
 
-    return GridSource(path, readable, read)
+    return GridSource(path, tuple(g.name for g in infos), read)
 
 
 @dataclass(frozen=True)

@@ -71,12 +71,14 @@ def volume_from_section(
         name: grids[value] if isinstance(value, str) else value
         for name, value in spec.species.items()
     }
+    absorption_note = repr(roles["absorption"]) if roles.get("absorption") else None
     if spec.preset:
         out = apply_preset(spec.preset, grids, spec.preset_options, names)
         by_role["temperature"], by_role["absorption"] = (
             out["temperature_K"],
             out["absorption_per_m"],
         )
+        absorption_note = out["description"] if out["absorption_per_m"] is not None else None
     file_origin = read.origin_m  # in the source's axes
     voxel = spec.voxel_size_m or read.voxel_size_m
     up = spec.up_axis or PRESET_UP_AXIS.get(spec.preset or "", "y")
@@ -93,6 +95,7 @@ def volume_from_section(
         source=str(source.path),
         sodium_fraction=by_role.get("sodium_fraction"),
         species=by_role.get("species"),
+        absorption_source=None if spec.absorption is not None else absorption_note,
     )
 
 

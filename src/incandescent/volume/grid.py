@@ -175,8 +175,10 @@ class Volume:
         source: str = "temperature",
         sodium_fraction: ArrayLike | float | None = None,
         species: Mapping[str, ArrayLike | float] | None = None,
+        absorption_source: str | None = None,
     ) -> Volume:
-        """Validate and place grids; ``source`` names the data's origin in error messages."""
+        """Validate and place grids; ``source`` names the data's origin in error messages;
+        ``absorption_source`` says where an absorption grid came from (metadata, ``--stats``)."""
         raw = _grid(temperature, f"{source}")
         temp = _remapped_temperature(raw, remap or Remap(), source)
         _check_ceiling(temp, remap or Remap(), source)
@@ -184,6 +186,8 @@ class Volume:
         temp[vacuum] = 0.0
         voxel = _voxel_size(voxel_size_m, temp.shape)
         kappa, how = _absorption(absorption, temp, voxel, source)
+        if absorption_source and how == "grid":
+            how = f"grid ({absorption_source})"
         kappa[vacuum] = 0.0
         scale = _optional_grid(emission_scale, temp.shape, "emission_scale", source)
         origin = _origin(origin_m, temp.shape, voxel)
