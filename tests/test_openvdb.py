@@ -151,3 +151,20 @@ def test_a_killed_worker_is_replaced(tiled):
         worker.process.kill()
         worker.process.wait()
     assert {i.name for i in vdb.list_grids(tiled)} == {"density", "velocity"}
+
+
+def test_info_json_agrees_with_openvdb():
+    from typer.testing import CliRunner
+
+    from incandescent.cli import app
+
+    result = CliRunner().invoke(app, ["info", "--json", str(BLENDER)])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    grids = {g["name"]: g for g in report["grids"]}
+    for name, (count, total) in _openvdb_totals(BLENDER).items():
+        assert grids[name]["active_voxels"] == count and grids[name]["readable"]
+        assert grids[name]["sum"] == pytest.approx(total, rel=1e-9)
+    velocity = grids["velocity"]
+    assert velocity["type"] == "vec3s" and velocity["sum"] is None and velocity["max"] > 0
+    assert any("--preset blender" in w for w in report["warnings"])

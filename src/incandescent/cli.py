@@ -441,33 +441,51 @@ def _demo_plate(output: Path, settings, frames: int, backend: str, overwrite: bo
 def info(
     path: Path = typer.Argument(..., help="A volume file: .npy .npz .vdb .nvdb .h5 .hdf5 .nc."),
     axes: str = typer.Option(None, help="Order of the stored array axes, e.g. zyx [xyz]."),
+    as_json: bool = typer.Option(False, "--json", help="Print one JSON object (for scripts)."),
 ) -> None:
-    """List a volume file's grids: type, shape, value range, placement; warn about grids named
-    like temperature that cannot be kelvin."""
-    from rich.table import Table
-
-    from incandescent.io.volumes import describe
-    from incandescent.volume.presets import kelvin_warning
+    """List a volume file's grids: type, active voxels and box, value range and sum, placement;
+    warn about grids named like temperature that cannot be kelvin, and name the preset a known
+    cache needs."""
+    from incandescent.io.volumes import describe, file_warnings
 
     with _guarded():
         if path.suffix.lower() in SCENE_SUFFIXES:  # a scene: describe the volume file it names
             spec = _scene(path, {}).volume
-            _say(f"{path}: a scene file; its volume is {spec.path}")
+            if not as_json:
+                _say(f"{path}: a scene file; its volume is {spec.path}")
             path, axes = spec.path, axes or spec.axes
         grids = describe(path, axes)
+    warnings = file_warnings(path, grids) + [w for g in grids for w in _grid_warnings(g)]
+    if as_json:
+        report = {"path": str(path), "grids": [g.as_json() for g in grids], "warnings": warnings}
+        typer.echo(json.dumps(report, indent=2))
+        return
+    _info_table(path, grids)
+    for text in warnings:
+        console.print(f"[yellow]note:[/] {escape(text)}", highlight=False, soft_wrap=True)
+
+
+def _grid_warnings(g) -> list[str]:
+    from incandescent.volume.presets import kelvin_warning
+
+    warning = None
+    if g.value_max is not None:
+        warning = kelvin_warning(g.name, np.array([g.value_max]))
+    return [t for t in (warning, g.note and f"{g.name}: {g.note}") if t]
+
+
+def _info_table(path: Path, grids) -> None:
+    from rich.table import Table
+
     table = Table(title=escape(str(path)))
-    for column in ("grid", "type", "shape (x, y, z)", "min", "max", "placement"):
+    columns = ("grid", "type", "active voxels", "shape (x, y, z)", "min", "max", "placement")
+    for column in columns:
         table.add_column(column)
     for g in grids:
-        cells = (g.name, g.value_type, str(g.shape), _num(g.value_min), _num(g.value_max))
+        active = "—" if g.active_voxels is None else f"{g.active_voxels:,}"
+        cells = (g.name, g.value_type, active, str(g.shape), _num(g.value_min), _num(g.value_max))
         table.add_row(*(escape(c) for c in (*cells, g.placement)))
-    Console(width=160).print(table)
-    for g in grids:
-        warning = None
-        if g.value_max is not None:
-            warning = kelvin_warning(g.name, np.array([g.value_max]))
-        for text in filter(None, (warning, g.note and f"{g.name}: {g.note}")):
-            console.print(f"[yellow]note:[/] {escape(text)}", highlight=False, soft_wrap=True)
+    Console(width=180).print(table)
 
 
 def _num(value: float | None) -> str:

@@ -148,9 +148,11 @@ def ask(path: Path, request: dict) -> dict:
     return reply
 
 
-def describe(path: Path) -> list[dict]:
-    """Every grid of the file as the worker describes it (see ``openvdb_worker``)."""
-    return ask(path, {"op": "describe", "path": str(path.resolve())})["grids"]
+def describe(path: Path, sums: bool = False) -> list[dict]:
+    """Every grid of the file as the worker describes it (see ``openvdb_worker``); with
+    ``sums``, float grids also get the sum of their active values (tiles included)."""
+    request = {"op": "describe", "path": str(path.resolve()), "sums": sums}
+    return ask(path, request)["grids"]
 
 
 def dense(path: Path, names: list[str], lo, hi) -> dict[str, np.ndarray]:

@@ -93,7 +93,13 @@ def _describe_grid(path: str, meta) -> dict:
 
 def describe(request: dict) -> dict:
     path = request["path"]
-    return {"grids": [_describe_grid(path, meta) for meta in vdb.readAllGridMetadata(path)]}
+    grids = [_describe_grid(path, meta) for meta in vdb.readAllGridMetadata(path)]
+    if request.get("sums"):
+        for info in grids:
+            if info["type"] == "float" and "unreadable" not in info:
+                grid = vdb.read(path, info["name"])  # tiles count once per voxel they cover
+                info["sum"] = float(sum(v["value"] * v["count"] for v in grid.citerOnValues()))
+    return {"grids": grids}
 
 
 def dense(request: dict) -> dict:

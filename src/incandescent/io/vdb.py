@@ -188,6 +188,23 @@ def list_grids(path: str | Path) -> list[GridInfo]:
         return [_vdb_info(path, grid) for grid in _vdb_grids(path, handle)]
 
 
+def grid_sums(path: str | Path) -> dict[str, float]:
+    """Sum of the active values (active tiles included, once per voxel they cover) of each float
+    grid that can be read; OpenVDB computes it where installed, else tinyvdb's leaf voxels."""
+    path = _checked_path(path)
+    if path.suffix.lower() == ".vdb" and openvdb.interpreter():
+        _vdb_bytes(path)
+        return {g["name"]: g["sum"] for g in openvdb.describe(path, sums=True) if "sum" in g}
+    out = {}
+    for info in list_grids(path):
+        if info.unreadable is None and info.is_float and info.active_voxels:
+            grid = read_grid(path, info.name)
+            inactive = grid.values.size - info.active_voxels  # box voxels filled by background
+            box_sum = float(grid.values.sum(dtype=np.float64))
+            out[info.name] = box_sum - inactive * grid.background
+    return out
+
+
 def read_grid(path: str | Path, name: str, max_voxels: int = MAX_DENSE_VOXELS) -> DenseGrid:
     """Read float grid ``name`` densified over its active box (see the module's conventions)."""
     return read_grids(path, [name], max_voxels)[name]

@@ -273,15 +273,56 @@ class GridSummary:
     value_max: float | None
     placement: str
     note: str | None = None
+    #: active voxels (tiles included), their inclusive index box, and the sum of their values
+    #: (None where unknown: vectors, unreadable grids); dense files: every voxel is active
+    active_voxels: int | None = None
+    index_min: tuple[int, ...] | None = None
+    index_max: tuple[int, ...] | None = None
+    value_sum: float | None = None
+
+    @property
+    def readable(self) -> bool:
+        return self.value_type != "?" and not (self.note or "").startswith("cannot be read")
+
+    def as_json(self) -> dict:
+        """The ``info --json`` record of this grid."""
+        return {
+            "name": self.name,
+            "type": self.value_type,
+            "active_voxels": self.active_voxels,
+            "bbox_min": None if self.index_min is None else list(self.index_min),
+            "bbox_max": None if self.index_max is None else list(self.index_max),
+            "min": self.value_min,
+            "max": self.value_max,
+            "sum": self.value_sum,
+            "readable": self.readable,
+            "notes": self.note,
+        }
 
 
 def describe(path: str | Path, axes: str | None = None) -> list[GridSummary]:
-    """A summary of every grid in a volume file: type, shape, value range, placement."""
+    """A summary of every grid in a volume file: type, shape, value range and sum, active
+    voxels and their box, placement."""
     path = Path(path)
     if path.suffix.lower() in VDB_SUFFIXES and path.is_file():
         return _describe_vdb(path)
     source = open_grids(path, axes)
     return [_summary(source, name) for name in source.names]
+
+
+#: Grids of a Blender Mantaflow (fire/smoke) cache; a file with these is one.
+MANTAFLOW_GRIDS = frozenset({"density", "flame", "velocity"})
+
+
+def file_warnings(path: str | Path, grids: list[GridSummary]) -> list[str]:
+    """What ``info`` should say about the file as a whole (e.g. which preset fits it)."""
+    names = {g.name for g in grids}
+    if MANTAFLOW_GRIDS <= names and names & {"heat", "temperature"}:
+        return [
+            f"{Path(path).name} looks like a Blender Mantaflow cache (density, flame, heat or "
+            "temperature, velocity): render it with --preset blender"
+        ]
+    return []
 
 
 def _summary(source: GridSource, name: str) -> GridSummary:
@@ -296,13 +337,19 @@ def _summary(source: GridSource, name: str) -> GridSummary:
     placement = "none stored (default: centred, largest side 1 m)"
     if grids.voxel_size_m is not None:
         placement = f"voxel {grids.voxel_size_m:g} m, corner {grids.origin_m} m"
-    return GridSummary(name, str(values.dtype), values.shape, low, high, placement, note)
+    total = float(np.nansum(values, dtype=np.float64)) if numeric else None
+    box = (0, 0, 0), tuple(n - 1 for n in values.shape[:3])
+    return GridSummary(
+        name, str(values.dtype), values.shape, low, high, placement, note,
+        int(values.size), *box, total,
+    )  # fmt: skip
 
 
 def _describe_vdb(path: Path) -> list[GridSummary]:
     from incandescent.io import vdb
 
     out = []
+    sums = vdb.grid_sums(path)
     for g in vdb.list_grids(path):
         shape = None
         if g.index_min is not None and g.index_max is not None:
@@ -317,6 +364,10 @@ def _describe_vdb(path: Path) -> list[GridSummary]:
                 g.value_max,
                 placement,
                 g.unreadable and f"cannot be read: {g.unreadable}",
+                g.active_voxels,
+                g.index_min,
+                g.index_max,
+                sums.get(g.name),
             )
         )
     return out
