@@ -5,7 +5,7 @@ from __future__ import annotations
 from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
 from incandescent.imaging import DisplaySettings, to_display
-from incandescent.io.output import save_image, write_json
+from incandescent.io.output import save_image, save_volume, write_json
 from incandescent.renderer import HDRImage, RenderSettings, render
 from incandescent.volume import Remap, Volume
 from incandescent.volume.assemble import load_volume, volume_from_section
@@ -23,6 +23,7 @@ __all__ = [
     "volume_from_section",
     "render",
     "save_image",
+    "save_volume",
     "to_display",
     "write_json",
 ]

@@ -493,6 +493,40 @@ def _num(value: float | None) -> str:
 
 
 @app.command()
+def convert(
+    source: Path = typer.Argument(..., help="A volume file (any readable format) or a scene file."),
+    output: Path = typer.Argument(..., help="Output: .npz (dense, placed) or .vdb (sparse)."),
+    preset: str = typer.Option(None, help="Source preset: blender | houdini | embergen."),
+    temperature_grid: str = typer.Option(None, help="Name of the temperature grid."),
+    offset: float = typer.Option(None, help="Temperature remap: T = (raw − offset)·scale [0]."),
+    scale: float = typer.Option(None, help="Temperature remap scale, K per raw unit [1]."),
+    cutoff: float = typer.Option(None, help="Voxels below this many K are vacuum [0]."),
+    temperature_range: str = typer.Option(None, help="LOW:HIGH — normalised field to kelvin."),
+    absorption: float = typer.Option(None, help="Constant absorption κ in 1/m."),
+    voxel_size: float = typer.Option(None, help="Voxel side in m."),
+    up_axis: str = typer.Option(None, help="The source's up axis: y | z [preset's, else y]."),
+    axes: str = typer.Option(None, help="Order of the stored array axes, e.g. zyx [xyz]."),
+    overwrite: bool = typer.Option(False, "--overwrite", help="Replace an existing output."),
+    max_memory: float = typer.Option(None, help=MAX_MEMORY_HELP),
+) -> None:
+    """Convert a volume to .npz or .vdb: the grids the renderer would use (temperature in K,
+    absorption in 1/m, emission scale, fractions), placed, y up; .vdb is written by OpenVDB."""
+    from incandescent import api
+    from incandescent.io.atomic import check_output
+    from incandescent.io.output import VOLUME_OUTPUT_SUFFIXES, save_volume
+
+    flags = dict(locals())
+    with _guarded():
+        limits = _limits(max_memory, None)
+        check_output(output, overwrite, VOLUME_OUTPUT_SUFFIXES, "volume")
+        scene = _scene(source, _overrides(flags))
+        volume = api.volume_from_section(scene.volume, scene.remap(), limits)
+        written = save_volume(volume, output, overwrite=overwrite)
+    _say(f"converted {source} ({volume.shape[0]}×{volume.shape[1]}×{volume.shape[2]} voxels, "
+         f"voxel {volume.voxel_size_m:g} m) to {written}")  # fmt: skip
+
+
+@app.command()
 def animate(
     pattern: str = typer.Argument(
         ..., help="Volume files of a sequence: a glob ('cache/*.npz') or a #### frame pattern."

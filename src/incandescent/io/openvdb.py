@@ -117,7 +117,8 @@ class _Worker:
 def read_timeout_s(path: Path) -> float:
     """How long a read of ``path`` may take before the worker is taken to hang (OpenVDB can
     spend minutes on a corrupt block): generous for real files, ~100 MB/s and 30 s more."""
-    return 30.0 + path.stat().st_size / 100e6
+    size = path.stat().st_size if path.is_file() else 0
+    return 30.0 + size / 100e6
 
 
 _LOCK = threading.Lock()
@@ -168,3 +169,25 @@ def dense(path: Path, names: list[str], lo, hi) -> dict[str, np.ndarray]:
         }
         files = ask(path, request)["files"]
         return {name: np.load(files[name], allow_pickle=False) for name in names}
+
+
+def write(path: Path, grids: dict[str, np.ndarray], voxel_size_m: float, origin_m, metadata):
+    """Write ``grids`` (name → float32 (nx, ny, nz) or (nx, ny, nz, 3)) to ``path`` as a sparse
+    ``.vdb`` with OpenVDB; ``origin_m`` is the corner of voxel (0, 0, 0), so OpenVDB's index
+    (0, 0, 0) is centred half a voxel inside it. ``metadata``: name → {key: str}."""
+    with tempfile.TemporaryDirectory(prefix="incandescent-vdb-") as folder:
+        translation = [float(o) + 0.5 * voxel_size_m for o in origin_m]
+        specs = []
+        for i, (name, values) in enumerate(grids.items()):
+            file = os.path.join(folder, f"grid_{i}.npy")
+            np.save(file, np.ascontiguousarray(values, dtype=np.float32), allow_pickle=False)
+            specs.append(
+                {
+                    "name": name,
+                    "file": file,
+                    "voxel_size": voxel_size_m,
+                    "translation": translation,
+                    "metadata": metadata.get(name, {}),
+                }
+            )
+        ask(path, {"op": "write", "path": str(path), "grids": specs})

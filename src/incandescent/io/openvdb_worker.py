@@ -119,7 +119,28 @@ def dense(request: dict) -> dict:
     return {"files": files}
 
 
-OPS = {"describe": describe, "dense": dense}
+def write(request: dict) -> dict:
+    """Write grids (dense ``.npy`` files) as one sparse ``.vdb``: voxels equal to the background
+    (0) inactive, pruned (constant regions become tiles), index (0, 0, 0) centred at
+    ``translation``, cubic voxels; each grid's metadata as given."""
+    grids = []
+    for spec in request["grids"]:
+        values = np.load(spec["file"], allow_pickle=False)
+        grid = vdb.Vec3SGrid() if values.ndim == 4 else vdb.FloatGrid()
+        grid.name = spec["name"]
+        grid.copyFromArray(values, ijk=(0, 0, 0), tolerance=0)
+        grid.prune()
+        grid.transform = vdb.createLinearTransform(voxelSize=float(spec["voxel_size"]))
+        grid.transform.translate(tuple(float(v) for v in spec["translation"]))
+        grid.gridClass = vdb.GridClass.FOG_VOLUME
+        for key, value in spec.get("metadata", {}).items():
+            grid[key] = value
+        grids.append(grid)
+    vdb.write(request["path"], grids=grids)
+    return {"written": request["path"], "grids": [g.name for g in grids]}
+
+
+OPS = {"describe": describe, "dense": dense, "write": write}
 
 
 def main() -> None:  # noqa: D103

@@ -9,6 +9,7 @@ import numpy as np
 
 from incandescent.imaging import DisplaySettings
 from incandescent.imaging.pipeline import display_pixels
+from incandescent.io.atomic import check_output
 from incandescent.io.formats import IMAGE_SUFFIXES as _IMAGE_SUFFIXES
 from incandescent.io.images import atomic_write, write_exr, write_png
 from incandescent.renderer.film import HDRImage
@@ -73,3 +74,52 @@ def _jsonable(value):
     if isinstance(value, np.generic):
         return value.item()
     return str(value)
+
+
+#: Suffixes :func:`save_volume` writes.
+VOLUME_OUTPUT_SUFFIXES = (".npz", ".vdb")
+
+
+def volume_grids(volume) -> dict[str, np.ndarray]:
+    """A Volume's grids by their file names (temperature in K, absorption in 1/m, …)."""
+    grids = {"temperature": volume.temperature_K, "absorption": volume.absorption_per_m}
+    if volume.emission_scale is not None:
+        grids["emission_scale"] = volume.emission_scale
+    if volume.sodium_fraction is not None:
+        grids["sodium_fraction"] = volume.sodium_fraction
+    grids.update(volume.species)
+    return grids
+
+
+_UNITS = {"temperature": "kelvin", "absorption": "1/m"}
+
+
+def save_volume(volume, path: str | Path, overwrite: bool = False) -> Path:
+    """Write ``volume`` to ``.npz`` (dense, with ``voxel_size_m`` and ``origin_m``) or ``.vdb``
+    (sparse: zeros inactive, pruned, written by OpenVDB so Blender and Houdini load it; a
+    ``unit`` in each grid's metadata). Atomic; refuses to overwrite unless asked. Axes are the
+    renderer's: x, y, z with +y up."""
+    path = check_output(path, overwrite, VOLUME_OUTPUT_SUFFIXES, "volume")
+    grids = volume_grids(volume)
+    if path.suffix.lower() == ".vdb":
+        from incandescent.io import openvdb
+
+        meta = {
+            name: {"unit": _UNITS.get(name, "fraction"), "written_by": "incandescent", "up": "y"}
+            for name in grids
+        }
+
+        def write_vdb(tmp: Path) -> None:
+            openvdb.write(tmp, grids, volume.voxel_size_m, volume.origin_m, meta)
+
+        return atomic_write(path, write_vdb, overwrite=overwrite)
+
+    def write_npz(tmp: Path) -> None:
+        with open(tmp, "xb") as handle:
+            placement = {
+                "voxel_size_m": np.float64(volume.voxel_size_m),
+                "origin_m": np.asarray(volume.origin_m, dtype=np.float64),
+            }
+            np.savez_compressed(handle, **placement, **grids)  # type: ignore[arg-type]
+
+    return atomic_write(path, write_npz, overwrite=overwrite)

@@ -141,6 +141,22 @@ def _npz_budget(path: Path, data, names: list[str], limits: Limits) -> None:
     limits.check_memory(total, f"reading {', '.join(names)} from {path}")
 
 
+#: ``.npz`` entries that place the grids (written by ``save_volume``), not grids themselves.
+PLACEMENT_KEYS = ("voxel_size_m", "origin_m")
+
+
+def _npz_placement(path: Path, data) -> tuple[tuple[float, float, float] | None, float | None]:
+    """(origin_m, voxel_size_m) stored in the file, or None each."""
+    if not set(PLACEMENT_KEYS) <= set(data.files):
+        return None, None
+    try:
+        voxel = float(np.asarray(data["voxel_size_m"]).reshape(()))
+        origin = np.asarray(data["origin_m"], dtype=np.float64).reshape(3)
+    except (*_CORRUPT, TypeError) as error:
+        raise ValueError(f"{path}: voxel_size_m/origin_m cannot be read ({error})") from None
+    return (float(origin[0]), float(origin[1]), float(origin[2])), voxel
+
+
 def _npz_reader(path: Path, data, limits: Limits) -> Callable[[Iterable[str]], Grids]:
     def read(names: Iterable[str]) -> Grids:
         names = list(names)
@@ -155,7 +171,7 @@ def _npz_reader(path: Path, data, limits: Limits) -> Callable[[Iterable[str]], G
                 ) from None
             except _CORRUPT as error:
                 raise ValueError(f"{path}: grid {name!r} cannot be read ({error})") from None
-        return Grids(out)
+        return Grids(out, *_npz_placement(path, data))
 
     return read
 
@@ -209,7 +225,8 @@ def open_grids(
     if isinstance(data, np.ndarray):
         source = GridSource(path, ("temperature",), _npy_reader(path, data))
     else:
-        source = GridSource(path, tuple(data.files), _npz_reader(path, data, limits))
+        names = tuple(n for n in data.files if n not in PLACEMENT_KEYS)
+        source = GridSource(path, names, _npz_reader(path, data, limits))
     return _with_axes(source, axes)
 
 
