@@ -214,3 +214,16 @@ def test_a_converted_blender_cache_renders_the_same_image(tmp_path):
     a, b = (api.render(v, camera, s, "cpu") for v in (direct, again))
     np.testing.assert_array_equal(a.xyz, b.xyz)
     assert a.metadata["samples"] == b.metadata["samples"]
+
+
+def test_animate_takes_the_volume_options_render_takes(tmp_path):
+    """A Blender cache sequence animates from the command line (--preset, --up-axis)."""
+    import shutil
+
+    for i in (1, 2):
+        shutil.copy(BLENDER, tmp_path / f"fire_{i:04d}.vdb")
+    out = tmp_path / "fire.gif"
+    args = ("animate", tmp_path / "fire_####.vdb", "-o", out, "--width", 24, "--height", 16)
+    result = _cli(*args, "--preset", "blender", "--up-axis", "z")
+    assert result.exit_code == 0, result.output
+    assert out.stat().st_size > 0

@@ -539,7 +539,12 @@ def animate(
     step: float = typer.Option(0.5, help="Ray-march step in voxels."),
     absorption: float = typer.Option(None, help="Constant absorption κ in 1/m."),
     voxel_size: float = typer.Option(None, help="Voxel side in m."),
-    temperature_grid: str = typer.Option("temperature", help="Temperature grid name (.npz)."),
+    temperature_grid: str = typer.Option(
+        None, help="Name of the temperature grid [temperature, heat or temp]."
+    ),
+    preset: str = typer.Option(None, help="Source preset: blender | houdini | embergen."),
+    up_axis: str = typer.Option(None, help="The source's up axis: y | z [preset's, else y]."),
+    axes: str = typer.Option(None, help="Order of the stored array axes, e.g. zyx [xyz]."),
     offset: float = typer.Option(None, help="Temperature remap: T = (raw − offset)·scale [0]."),
     scale: float = typer.Option(None, help="Temperature remap scale, K per raw unit [1]."),
     cutoff: float = typer.Option(None, help="Voxels below this many K are vacuum [0]."),

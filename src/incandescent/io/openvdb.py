@@ -149,10 +149,11 @@ def ask(path: Path, request: dict) -> dict:
     return reply
 
 
-def describe(path: Path, sums: bool = False) -> list[dict]:
+def describe(path: Path, sums: bool = False, ranges: bool = True) -> list[dict]:
     """Every grid of the file as the worker describes it (see ``openvdb_worker``); with
-    ``sums``, float grids also get the sum of their active values (tiles included)."""
-    request = {"op": "describe", "path": str(path.resolve()), "sums": sums}
+    ``sums``, float grids also get the sum of their active values (tiles included); without
+    ``ranges``, no value ranges (what a read needs: a vector range visits every value)."""
+    request = {"op": "describe", "path": str(path.resolve()), "sums": sums, "ranges": ranges}
     return ask(path, request)["grids"]
 
 

@@ -64,7 +64,7 @@ def _value_range(grid, value_type: str):
     return float(low), float(high)
 
 
-def _describe_grid(path: str, meta) -> dict:
+def _describe_grid(path: str, meta, ranges: bool = True) -> dict:
     metadata = {str(k): _jsonable(v) for k, v in dict(meta.metadata).items()}
     info = {"name": meta.name, "type": meta.valueTypeName, "metadata": metadata}
     if meta.valueTypeName not in READABLE:
@@ -86,14 +86,15 @@ def _describe_grid(path: str, meta) -> dict:
     if count:
         lo, hi = grid.evalActiveVoxelBoundingBox()
         info.update(index_min=list(lo), index_max=list(hi))
-        if meta.valueTypeName != "bool":
+        if ranges and meta.valueTypeName != "bool":
             info["min"], info["max"] = _value_range(grid, meta.valueTypeName)
     return info
 
 
 def describe(request: dict) -> dict:
     path = request["path"]
-    grids = [_describe_grid(path, meta) for meta in vdb.readAllGridMetadata(path)]
+    ranges = request.get("ranges", True)
+    grids = [_describe_grid(path, meta, ranges) for meta in vdb.readAllGridMetadata(path)]
     if request.get("sums"):
         for info in grids:
             if info["type"] == "float" and "unreadable" not in info:
@@ -126,9 +127,10 @@ def write(request: dict) -> dict:
     grids = []
     for spec in request["grids"]:
         values = np.load(spec["file"], allow_pickle=False)
-        grid = vdb.Vec3SGrid() if values.ndim == 4 else vdb.FloatGrid()
+        vector = values.ndim == 4
+        grid = vdb.Vec3SGrid() if vector else vdb.FloatGrid()
         grid.name = spec["name"]
-        grid.copyFromArray(values, ijk=(0, 0, 0), tolerance=0)
+        grid.copyFromArray(values, ijk=(0, 0, 0), tolerance=(0.0, 0.0, 0.0) if vector else 0.0)
         grid.prune()
         grid.transform = vdb.createLinearTransform(voxelSize=float(spec["voxel_size"]))
         grid.transform.translate(tuple(float(v) for v in spec["translation"]))

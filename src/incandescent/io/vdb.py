@@ -278,7 +278,8 @@ def _openvdb_info(grid: dict) -> GridInfo:
 
 def _openvdb_read(path: Path, names: list[str], max_voxels: int) -> dict[str, DenseGrid]:
     """Grids densified onto the union of their active boxes by OpenVDB (tiles expanded)."""
-    infos = {info.name: info for info in list_grids(path)}
+    _vdb_bytes(path)
+    infos = {g["name"]: _openvdb_info(g) for g in openvdb.describe(path, ranges=False)}
     chosen = {name: _pick(path, infos, name) for name in names}
     for name, info in chosen.items():
         if info.unreadable:
