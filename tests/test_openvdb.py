@@ -18,6 +18,15 @@ from incandescent.io import openvdb, vdb
 
 pytestmark = pytest.mark.skipif(openvdb.problem() is not None, reason=str(openvdb.problem()))
 
+# The libopenvdb reference files of test_vdb.py, read here through OpenVDB instead of tinyvdb:
+# the same expectations hold (values, boxes, backgrounds, placement, half floats).
+from test_vdb import (  # noqa: E402, F401
+    test_half_float_file_reads_the_same_values,
+    test_list_grids_reports_names_boxes_transform_and_ranges,
+    test_read_grid_values_origin_and_axis_order_match_openvdb,
+    test_read_grids_share_one_box_filled_with_each_background,
+)
+
 DATA = Path(__file__).parent / "data"
 BLENDER = DATA / "blender_fire_0010.vdb"
 
