@@ -3,7 +3,8 @@
 Run with Blender's own Python (Debian 12's ``blender`` package is Blender 3.4.1)::
 
     blender -b --factory-startup --python scripts/make_blender_fire_cache.py -- OUTDIR \
-        [--frames 20] [--resolution 64] [--compression BLOSC|ZIP|NONE] [--precision 16|32]
+        [--frames 20] [--resolution 64] [--compression BLOSC|ZIP|NONE] [--precision 16|32] \
+        [--flow-type FIRE|BOTH]
 
 The scene: a gas domain 1 × 1 × 2 m (tall in z) at ``--resolution`` cells along its longest side
 (64 → 32 × 32 × 64 voxels) and a small cube near the floor emitting FIRE (flame + fuel + heat),
@@ -35,6 +36,9 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--resolution", type=int, default=64, help="cells on the longest side")
     parser.add_argument("--compression", default="BLOSC", choices=["BLOSC", "ZIP", "NONE"])
     parser.add_argument("--precision", default="16", choices=["16", "32"])
+    parser.add_argument(
+        "--flow-type", default="FIRE", choices=["FIRE", "BOTH"], help="BOTH: fire + smoke"
+    )
     return parser.parse_args(argv)
 
 
@@ -52,15 +56,16 @@ def add_domain() -> bpy.types.Object:
     return domain
 
 
-def add_fire_flow() -> bpy.types.Object:
-    """A small cube near the floor that emits fire (flame, fuel and heat)."""
+def add_fire_flow(flow_type: str = "FIRE") -> bpy.types.Object:
+    """A small cube near the floor that emits fire (flame, fuel and heat), and with ``BOTH``
+    smoke (density) as well."""
     bpy.ops.mesh.primitive_cube_add(size=0.25, location=(0.0, 0.0, 0.2))
     flow = bpy.context.active_object
     flow.name = "FireEmitter"
     modifier = flow.modifiers.new("Fluid", "FLUID")
     modifier.fluid_type = "FLOW"
     settings = modifier.flow_settings
-    settings.flow_type = "FIRE"
+    settings.flow_type = flow_type
     settings.flow_behavior = "INFLOW"
     settings.flow_source = "MESH"
     settings.fuel_amount = 1.5
@@ -104,7 +109,7 @@ def main() -> None:
     args.outdir.mkdir(parents=True, exist_ok=True)
     clear_scene()
     domain = add_domain()
-    add_fire_flow()  # before the domain's cache settings
+    add_fire_flow(args.flow_type)  # before the domain's cache settings
     configure_domain(domain, args)
     bake(domain, args.frames)
     written = sorted(args.outdir.rglob("*.vdb"))

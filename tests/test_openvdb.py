@@ -236,3 +236,28 @@ def test_animate_takes_the_volume_options_render_takes(tmp_path):
     result = _cli(*args, "--preset", "blender", "--up-axis", "z")
     assert result.exit_code == 0, result.output
     assert out.stat().st_size > 0
+
+
+FIRE_SMOKE = DATA / "blender_fire_smoke_0012.vdb"
+
+
+def test_a_fire_and_smoke_cache_reads_and_renders_with_kappa_from_density(tmp_path):
+    """A Blender fire + smoke bake (half floats, Blosc, shadow all tiles): info --json agrees
+    with OpenVDB, and render --preset blender takes κ from the density grid and says so."""
+    report = json.loads(_cli("info", "--json", FIRE_SMOKE).stdout)
+    grids = {g["name"]: g for g in report["grids"]}
+    for name, (count, total) in _openvdb_totals(FIRE_SMOKE).items():
+        assert grids[name]["active_voxels"] == count and grids[name]["readable"]
+        assert grids[name]["sum"] == pytest.approx(total, rel=1e-9)
+    assert grids["shadow"]["active_voxels"] == 65536  # all of them active tiles
+    stats = tmp_path / "s.json"
+    args = ("render", FIRE_SMOKE, "-o", tmp_path / "f.png", "--width", 32, "--height", 48)
+    result = _cli(*args, "--preset", "blender", "--stats", stats)
+    assert result.exit_code == 0, result.output
+    assert "κ = 1 1/m · 'density'" in json.loads(stats.read_text())["absorption"]
+
+
+def test_without_openvdb_the_tiled_grid_says_how_to_install_it(monkeypatch):
+    monkeypatch.setattr(openvdb, "interpreter", lambda: None)
+    shadow = {i.name: i for i in vdb.list_grids(FIRE_SMOKE)}["shadow"]
+    assert "active tiles" in shadow.unreadable and "python3-openvdb" in shadow.unreadable
