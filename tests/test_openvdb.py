@@ -261,3 +261,19 @@ def test_without_openvdb_the_tiled_grid_says_how_to_install_it(monkeypatch):
     monkeypatch.setattr(openvdb, "interpreter", lambda: None)
     shadow = {i.name: i for i in vdb.list_grids(FIRE_SMOKE)}["shadow"]
     assert "active tiles" in shadow.unreadable and "python3-openvdb" in shadow.unreadable
+
+
+@pytest.mark.parametrize("codec", ["zip", "none"])
+def test_blosc_zip_and_uncompressed_bakes_read_the_same_voxels(codec):
+    names = ["density", "flame", "temperature", "velocity"]
+    blosc = vdb.read_grids(DATA / "blender_fire_smoke_blosc_0004.vdb", names)
+    other = vdb.read_grids(DATA / f"blender_fire_smoke_{codec}_0004.vdb", names)
+    for name in names:
+        np.testing.assert_array_equal(other[name].values, blosc[name].values)
+        assert other[name].values.any()
+
+
+def test_other_value_types_are_listed_with_a_note():
+    infos = {i.name: i for i in vdb.list_grids(DATA / "openvdb_types.vdb")}
+    assert "bool values (a mask)" in infos["mask"].unreadable
+    assert infos["velocity"].unreadable is None and infos["empty"].active_voxels == 0
