@@ -253,7 +253,9 @@ def test_temperature_range_maps_a_normalised_field(tmp_path):
     args = ["render", path, "-o", tmp_path / "n.exr", "--width", 4, "--height", 4]
     result = _run(*args, "--temperature-range", "1000:3000", "--stats", stats)
     assert result.exit_code == 0, result.output
-    assert json.loads(stats.read_text())["max_luminance_cd_m2"] > 0
+    data = json.loads(stats.read_text())
+    assert data["max_luminance_cd_m2"] > 0
+    assert data["temperature"] == "grid 'temperature'; T = (raw − -0.5)·2000 K"  # the rule used
     bad = _run(*args, "--temperature-range", "3000:1000", "--overwrite")
     assert bad.exit_code == 2
     assert "range = [LOW, HIGH] needs 0 <= LOW < HIGH" in " ".join(bad.output.split())

@@ -254,7 +254,9 @@ def test_a_fire_and_smoke_cache_reads_and_renders_with_kappa_from_density(tmp_pa
     args = ("render", FIRE_SMOKE, "-o", tmp_path / "f.png", "--width", 32, "--height", 48)
     result = _cli(*args, "--preset", "blender", "--stats", stats)
     assert result.exit_code == 0, result.output
-    assert "κ = 1 1/m · 'density'" in json.loads(stats.read_text())["absorption"]
+    data = json.loads(stats.read_text())
+    assert "κ = 1 1/m · 'density'" in data["absorption"]
+    assert "T = 1000 K · (1.5 + 'flame'" in data["temperature"]  # the rule that gave T
 
 
 def test_without_openvdb_the_tiled_grid_says_how_to_install_it(monkeypatch):

@@ -334,6 +334,7 @@ def _stats(image, start: float) -> dict:
         "backend": meta["backend"],
         "device": meta["device"],
         "absorption": meta["absorption"],
+        "temperature": meta["temperature"],
         "width": image.width,
         "height": image.height,
         "max_luminance_cd_m2": None if image.xyz is None else float(image.luminance.max()),

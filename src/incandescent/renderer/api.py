@@ -154,6 +154,7 @@ def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRI
         "samples": result.samples,
         "seconds": result.seconds,
         "absorption": inputs.volume.absorption_source,
+        "temperature": inputs.volume.temperature_source,
         "max_temperature_K": inputs.volume.max_temperature_K,
         "brightness": s.brightness,
         "observer": s.observer,

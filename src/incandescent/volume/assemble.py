@@ -72,6 +72,7 @@ def volume_from_section(
         for name, value in spec.species.items()
     }
     absorption_note = repr(roles["absorption"]) if roles.get("absorption") else None
+    temperature_note = f"grid {roles['temperature']!r}" if roles.get("temperature") else None
     if spec.preset:
         out = apply_preset(spec.preset, grids, spec.preset_options, names)
         by_role["temperature"], by_role["absorption"] = (
@@ -79,6 +80,7 @@ def volume_from_section(
             out["absorption_per_m"],
         )
         absorption_note = out["description"] if out["absorption_per_m"] is not None else None
+        temperature_note = out["description"]
     file_origin = read.origin_m  # in the source's axes
     voxel = spec.voxel_size_m or read.voxel_size_m
     up = spec.up_axis or PRESET_UP_AXIS.get(spec.preset or "", "y")
@@ -96,6 +98,7 @@ def volume_from_section(
         sodium_fraction=by_role.get("sodium_fraction"),
         species=by_role.get("species"),
         absorption_source=None if spec.absorption is not None else absorption_note,
+        temperature_source=temperature_note,
     )
 
 

@@ -89,6 +89,7 @@ class Volume:
     absorption_source: str = field(default="grid")
     sodium_fraction: NDArray[np.float32] | None = None
     species: dict[str, NDArray[np.float32]] = field(default_factory=dict)
+    temperature_source: str = "given in K"
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -176,6 +177,7 @@ class Volume:
         sodium_fraction: ArrayLike | float | None = None,
         species: Mapping[str, ArrayLike | float] | None = None,
         absorption_source: str | None = None,
+        temperature_source: str | None = None,
     ) -> Volume:
         """Validate and place grids; ``source`` names the data's origin in error messages;
         ``absorption_source`` says where an absorption grid came from (metadata, ``--stats``)."""
@@ -198,7 +200,12 @@ class Volume:
             if (grid := _fraction_grid(value, temp.shape, f"species {name!r} fraction", source))
             is not None
         }
-        return cls(_f32(temp), _f32(kappa), scale, origin, voxel, how, sodium, fractions)
+        rule = temperature_source or "given"
+        remap = remap or Remap()
+        if remap != Remap():
+            rule += f"; T = (raw − {remap.offset:g})·{remap.scale:g} K"
+            rule += f", vacuum below {remap.cutoff_K:g} K" if remap.cutoff_K else ""
+        return cls(_f32(temp), _f32(kappa), scale, origin, voxel, how, sodium, fractions, rule)
 
 
 def _grid(value: ArrayLike, name: str) -> NDArray[np.float64]:
