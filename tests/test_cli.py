@@ -424,3 +424,18 @@ def test_animate_with_an_orbiting_camera(tmp_path):
     assert result.exit_code == 0, result.output
     first, second = (np.asarray(Image.open(p)) for p in sorted(out.glob("frame_*.png")))
     assert not np.array_equal(first, second)  # same volume, camera moved
+
+
+def test_animate_takes_species_like_render(tmp_path):
+    from incandescent.scenes import plume_temperature
+
+    for i in (1, 2):
+        np.save(tmp_path / f"f_{i:04d}.npy", plume_temperature(10) * (0.9 + 0.1 * i))
+    args = ("animate", tmp_path / "f_####.npy", "--width", 12, "--height", 8)
+    assert _run(*args, "-o", tmp_path / "plain").exit_code == 0
+    coloured = _run(*args, "-o", tmp_path / "na", "--species", "Na=0.5")
+    assert coloured.exit_code == 0, coloured.output
+    plain_px = np.asarray(Image.open(tmp_path / "plain" / "frame_00001.png"), dtype=float)
+    na_px = np.asarray(Image.open(tmp_path / "na" / "frame_00001.png"), dtype=float)
+    assert not np.array_equal(plain_px, na_px)  # the sodium lines changed the frames
+

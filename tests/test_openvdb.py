@@ -279,3 +279,4 @@ def test_other_value_types_are_listed_with_a_note():
     infos = {i.name: i for i in vdb.list_grids(DATA / "openvdb_types.vdb")}
     assert "bool values (a mask)" in infos["mask"].unreadable
     assert infos["velocity"].unreadable is None and infos["empty"].active_voxels == 0
+

@@ -546,6 +546,10 @@ def animate(
     preset: str = typer.Option(None, help="Source preset: blender | houdini | embergen."),
     up_axis: str = typer.Option(None, help="The source's up axis: y | z [preset's, else y]."),
     axes: str = typer.Option(None, help="Order of the stored array axes, e.g. zyx [xyz]."),
+    species: str = typer.Option(
+        None, help="Emitting species, NAME=FRACTION or NAME=GRID, comma-separated."
+    ),
+    line_table: Path = typer.Option(None, help="Species line table (.csv/.toml) [shipped]."),
     offset: float = typer.Option(None, help="Temperature remap: T = (raw − offset)·scale [0]."),
     scale: float = typer.Option(None, help="Temperature remap scale, K per raw unit [1]."),
     cutoff: float = typer.Option(None, help="Voxels below this many K are vacuum [0]."),
@@ -606,9 +610,7 @@ def animate(
         camera = api.camera_from(
             first, _vector(eye, "eye"), _vector(target, "target"), fov, frame_content=False
         )
-        settings = api.RenderSettings(
-            width=width, height=height, step_voxels=step, brightness=brightness
-        )
+        settings = scene.render_settings()  # width, height, step, brightness, line table: flags
         path = paths_module.orbit(camera, len(paths), orbit) if orbit else camera
         display = fixed_display(
             volume_at(key_frame(paths)),
