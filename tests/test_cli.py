@@ -439,3 +439,10 @@ def test_animate_takes_species_like_render(tmp_path):
     na_px = np.asarray(Image.open(tmp_path / "na" / "frame_00001.png"), dtype=float)
     assert not np.array_equal(plain_px, na_px)  # the sodium lines changed the frames
 
+
+
+def test_help_keeps_the_defaults_in_brackets():
+    """Rich markup used to eat "[temperature, heat or temp]"-like defaults from the help."""
+    text = " ".join(_run("render", "--help").output.split())
+    for default in ("[temperature, heat or temp]", "[preset's, else y]", "[shipped]", "[xyz]"):
+        assert default in text, default

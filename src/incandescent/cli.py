@@ -27,6 +27,7 @@ app = typer.Typer(
     help="Physically based volumetric rendering of incandescent gas (flames, explosions, plumes).",
     no_args_is_help=True,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # help texts show defaults in [brackets]: no markup in them
     add_completion=False,
 )
 console = Console(stderr=True)
@@ -109,6 +110,37 @@ MAX_MEMORY_HELP = "Refuse work estimated to need more memory, GiB [the memory av
 MAX_SAMPLES_HELP = "Refuse renders estimated to take more ray-march samples [1e11]."
 
 
+# --- options shared by render, animate and convert (one definition each) ------------------
+OPT_ABSORPTION = typer.Option(
+    None,
+    help="Constant absorption κ in 1/m [the file's absorption grid, else 1/L where T >= 500 K,"
+    " L = the box's largest side].",
+)
+OPT_VOXEL_SIZE = typer.Option(None, help="Voxel side in m [file's, else largest side 1 m].")
+OPT_TEMPERATURE_GRID = typer.Option(
+    None, help="Name of the temperature grid [temperature, heat or temp]."
+)
+OPT_PRESET = typer.Option(None, help="Source preset: blender | houdini | embergen.")
+OPT_UP_AXIS = typer.Option(None, help="The source's up axis: y | z [preset's, else y].")
+OPT_AXES = typer.Option(
+    None, help="Order of the stored array axes, e.g. zyx (files that do not say) [xyz]."
+)
+OPT_OFFSET = typer.Option(None, help="Temperature remap: T = (raw − offset)·scale [0].")
+OPT_SCALE = typer.Option(None, help="Temperature remap scale, K per raw unit [1].")
+OPT_CUTOFF = typer.Option(None, help="Voxels below this many K are vacuum [0].")
+OPT_TEMPERATURE_RANGE = typer.Option(
+    None, help="LOW:HIGH — map a normalised 0..1 field linearly to LOW..HIGH K."
+)
+OPT_SPECIES = typer.Option(
+    None,
+    help="Emitting species, NAME=FRACTION or NAME=GRID, comma-separated (e.g. Na=0.02,"
+    "Li=lithium); lines from the shipped table or --line-table.",
+)
+OPT_LINE_TABLE = typer.Option(None, help="Species line table (.csv/.toml) [shipped].")
+OPT_MAX_MEMORY = typer.Option(None, help=MAX_MEMORY_HELP)
+OPT_MAX_SAMPLES = typer.Option(None, help=MAX_SAMPLES_HELP)
+
+
 def _vector(text: str | None, name: str) -> tuple[float, float, float] | None:
     if text is None:
         return None
@@ -152,26 +184,16 @@ def render(
     step: float = typer.Option(None, help="Ray-march step in voxels [0.5]."),
     supersample: int = typer.Option(None, help="N for N×N rays per pixel [1]."),
     seed: int = typer.Option(None, help="Jitter seed [0]."),
-    absorption: float = typer.Option(
-        None,
-        help="Constant absorption κ in 1/m [the file's absorption grid, else 1/L where T >= 500 K,"
-        " L = the box's largest side].",
-    ),
-    voxel_size: float = typer.Option(None, help="Voxel side in m [file's, else largest side 1 m]."),
-    temperature_grid: str = typer.Option(
-        None, help="Name of the temperature grid [temperature, heat or temp]."
-    ),
-    preset: str = typer.Option(None, help="Source preset: blender | houdini | embergen."),
-    up_axis: str = typer.Option(None, help="The source's up axis: y | z [preset's, else y]."),
-    axes: str = typer.Option(
-        None, help="Order of the stored array axes, e.g. zyx (files that do not say) [xyz]."
-    ),
-    offset: float = typer.Option(None, help="Temperature remap: T = (raw − offset)·scale [0]."),
-    scale: float = typer.Option(None, help="Temperature remap scale, K per raw unit [1]."),
-    cutoff: float = typer.Option(None, help="Voxels below this many K are vacuum [0]."),
-    temperature_range: str = typer.Option(
-        None, help="LOW:HIGH — map a normalised 0..1 field linearly to LOW..HIGH K."
-    ),
+    absorption: float = OPT_ABSORPTION,
+    voxel_size: float = OPT_VOXEL_SIZE,
+    temperature_grid: str = OPT_TEMPERATURE_GRID,
+    preset: str = OPT_PRESET,
+    up_axis: str = OPT_UP_AXIS,
+    axes: str = OPT_AXES,
+    offset: float = OPT_OFFSET,
+    scale: float = OPT_SCALE,
+    cutoff: float = OPT_CUTOFF,
+    temperature_range: str = OPT_TEMPERATURE_RANGE,
     eye: str = typer.Option(None, help="Camera position X,Y,Z in m [three-quarter view]."),
     target: str = typer.Option(None, help="Point looked at, X,Y,Z in m [centre of the gas]."),
     fov: float = typer.Option(None, help="Vertical field of view in degrees [40]."),
@@ -189,16 +211,12 @@ def render(
     ),
     sodium: float = typer.Option(None, help="Paper mode: constant sodium fraction 0..1."),
     paper_exponent: float = typer.Option(None, help="Paper mode: brightness ∝ T^exponent [1.5]."),
-    species: str = typer.Option(
-        None,
-        help="Emitting species, NAME=FRACTION or NAME=GRID, comma-separated (e.g. Na=0.02,"
-        "Li=lithium); lines from the shipped table or --line-table.",
-    ),
-    line_table: Path = typer.Option(None, help="Species line table (.csv/.toml) [shipped]."),
+    species: str = OPT_SPECIES,
+    line_table: Path = OPT_LINE_TABLE,
     stats: Path = typer.Option(None, help="Write render statistics (JSON) to this file."),
     overwrite: bool = typer.Option(None, "--overwrite", help="Replace existing output files."),
-    max_memory: float = typer.Option(None, help=MAX_MEMORY_HELP),
-    max_samples: float = typer.Option(None, help=MAX_SAMPLES_HELP),
+    max_memory: float = OPT_MAX_MEMORY,
+    max_samples: float = OPT_MAX_SAMPLES,
 ) -> None:
     """Render a volume file, or a scene file, to an image."""
     from incandescent import api
@@ -390,8 +408,8 @@ def demo(
     overwrite: bool = typer.Option(
         False, help="Replace an existing output (plate: and render every frame again)."
     ),
-    max_memory: float = typer.Option(None, help=MAX_MEMORY_HELP),
-    max_samples: float = typer.Option(None, help=MAX_SAMPLES_HELP),
+    max_memory: float = OPT_MAX_MEMORY,
+    max_samples: float = OPT_MAX_SAMPLES,
 ) -> None:
     """Render a built-in scene: plume, sparse, the paper's sphere, or the paper's plate video.
 
@@ -441,7 +459,7 @@ def _demo_plate(output: Path, settings, frames: int, backend: str, overwrite: bo
 @app.command()
 def info(
     path: Path = typer.Argument(..., help="A volume file: .npy .npz .vdb .nvdb .h5 .hdf5 .nc."),
-    axes: str = typer.Option(None, help="Order of the stored array axes, e.g. zyx [xyz]."),
+    axes: str = OPT_AXES,
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object (for scripts)."),
 ) -> None:
     """List a volume file's grids: type, active voxels and box, value range and sum, placement;
@@ -497,18 +515,18 @@ def _num(value: float | None) -> str:
 def convert(
     source: Path = typer.Argument(..., help="A volume file (any readable format) or a scene file."),
     output: Path = typer.Argument(..., help="Output: .npz (dense, placed) or .vdb (sparse)."),
-    preset: str = typer.Option(None, help="Source preset: blender | houdini | embergen."),
-    temperature_grid: str = typer.Option(None, help="Name of the temperature grid."),
-    offset: float = typer.Option(None, help="Temperature remap: T = (raw − offset)·scale [0]."),
-    scale: float = typer.Option(None, help="Temperature remap scale, K per raw unit [1]."),
-    cutoff: float = typer.Option(None, help="Voxels below this many K are vacuum [0]."),
-    temperature_range: str = typer.Option(None, help="LOW:HIGH — normalised field to kelvin."),
-    absorption: float = typer.Option(None, help="Constant absorption κ in 1/m."),
-    voxel_size: float = typer.Option(None, help="Voxel side in m."),
-    up_axis: str = typer.Option(None, help="The source's up axis: y | z [preset's, else y]."),
-    axes: str = typer.Option(None, help="Order of the stored array axes, e.g. zyx [xyz]."),
+    preset: str = OPT_PRESET,
+    temperature_grid: str = OPT_TEMPERATURE_GRID,
+    offset: float = OPT_OFFSET,
+    scale: float = OPT_SCALE,
+    cutoff: float = OPT_CUTOFF,
+    temperature_range: str = OPT_TEMPERATURE_RANGE,
+    absorption: float = OPT_ABSORPTION,
+    voxel_size: float = OPT_VOXEL_SIZE,
+    up_axis: str = OPT_UP_AXIS,
+    axes: str = OPT_AXES,
     overwrite: bool = typer.Option(False, "--overwrite", help="Replace an existing output."),
-    max_memory: float = typer.Option(None, help=MAX_MEMORY_HELP),
+    max_memory: float = OPT_MAX_MEMORY,
 ) -> None:
     """Convert a volume to .npz or .vdb: the grids the renderer would use (temperature in K,
     absorption in 1/m, emission scale, fractions), placed, y up; .vdb is written by OpenVDB."""
@@ -538,22 +556,18 @@ def animate(
     width: int = typer.Option(640, help="Frame width in pixels."),
     height: int = typer.Option(360, help="Frame height in pixels."),
     step: float = typer.Option(0.5, help="Ray-march step in voxels."),
-    absorption: float = typer.Option(None, help="Constant absorption κ in 1/m."),
-    voxel_size: float = typer.Option(None, help="Voxel side in m."),
-    temperature_grid: str = typer.Option(
-        None, help="Name of the temperature grid [temperature, heat or temp]."
-    ),
-    preset: str = typer.Option(None, help="Source preset: blender | houdini | embergen."),
-    up_axis: str = typer.Option(None, help="The source's up axis: y | z [preset's, else y]."),
-    axes: str = typer.Option(None, help="Order of the stored array axes, e.g. zyx [xyz]."),
-    species: str = typer.Option(
-        None, help="Emitting species, NAME=FRACTION or NAME=GRID, comma-separated."
-    ),
-    line_table: Path = typer.Option(None, help="Species line table (.csv/.toml) [shipped]."),
-    offset: float = typer.Option(None, help="Temperature remap: T = (raw − offset)·scale [0]."),
-    scale: float = typer.Option(None, help="Temperature remap scale, K per raw unit [1]."),
-    cutoff: float = typer.Option(None, help="Voxels below this many K are vacuum [0]."),
-    temperature_range: str = typer.Option(None, help="LOW:HIGH — normalised field to kelvin."),
+    absorption: float = OPT_ABSORPTION,
+    voxel_size: float = OPT_VOXEL_SIZE,
+    temperature_grid: str = OPT_TEMPERATURE_GRID,
+    preset: str = OPT_PRESET,
+    up_axis: str = OPT_UP_AXIS,
+    axes: str = OPT_AXES,
+    species: str = OPT_SPECIES,
+    line_table: Path = OPT_LINE_TABLE,
+    offset: float = OPT_OFFSET,
+    scale: float = OPT_SCALE,
+    cutoff: float = OPT_CUTOFF,
+    temperature_range: str = OPT_TEMPERATURE_RANGE,
     eye: str = typer.Option(None, help="Camera position X,Y,Z in m (default: three-quarter view)."),
     target: str = typer.Option(None, help="Point looked at, X,Y,Z in m."),
     fov: float = typer.Option(40.0, help="Vertical field of view in degrees."),
@@ -569,8 +583,8 @@ def animate(
     overwrite: bool = typer.Option(
         False, help="Replace an existing video and render every frame again."
     ),
-    max_memory: float = typer.Option(None, help=MAX_MEMORY_HELP),
-    max_samples: float = typer.Option(None, help=MAX_SAMPLES_HELP),
+    max_memory: float = OPT_MAX_MEMORY,
+    max_samples: float = OPT_MAX_SAMPLES,
 ) -> None:
     """Render a sequence of volume files to MP4/GIF/PNG frames with one camera and one exposure.
 
