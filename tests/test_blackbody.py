@@ -6,13 +6,14 @@ from decimal import Decimal, localcontext
 
 import numpy as np
 import pytest
+from _colour import import_colour
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import array_shapes, arrays
 
 from incandescent.colorimetry import xyz_to_xy
 from incandescent.spectra import blackbody_xyz, cmfs
-from incandescent.spectra.cmf import OBSERVERS, import_colour
+from incandescent.spectra.cmf import OBSERVERS
 
 colour = import_colour()
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from _colour import import_colour
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -23,7 +24,6 @@ from incandescent.colorimetry import (
     xyz_to_uv_prime,
     xyz_to_xy,
 )
-from incandescent.spectra.cmf import import_colour
 
 colour = import_colour()
 

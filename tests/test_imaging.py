@@ -6,6 +6,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from _colour import import_colour
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
@@ -25,7 +26,6 @@ from incandescent.imaging import (
     tonemap,
 )
 from incandescent.spectra import blackbody_xyz
-from incandescent.spectra.cmf import import_colour
 
 colour = import_colour()
 

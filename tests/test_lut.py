@@ -115,3 +115,26 @@ def test_custom_tabulated_function():
 def test_bad_arguments_raise(kwargs, error, match):
     with pytest.raises(error, match=match):
         build_emission_lut(**kwargs)
+
+
+def test_tables_are_cached_on_disk_and_a_bad_cache_is_rebuilt(tmp_path, monkeypatch):
+    from incandescent.spectra import lut as lut_module
+
+    monkeypatch.setenv(lut_module.CACHE_ENV, str(tmp_path))
+    calls = []
+
+    def build():
+        calls.append(1)
+        return [build_emission_lut(xyz_of_temperature=lambda t: np.stack([t, 2 * t, 3 * t], -1))]
+
+    first = lut_module.cached_tables("test ramp", build)
+    second = lut_module.cached_tables("test ramp", build)
+    assert len(calls) == 1  # the second came from disk
+    np.testing.assert_array_equal(second[0].values, first[0].values)
+    assert (second[0].t_min_K, second[0].t_max_K) == (first[0].t_min_K, first[0].t_max_K)
+    for path in tmp_path.glob("*.npz"):
+        path.write_bytes(b"not a table")  # corrupt: rebuilt, not an error
+    third = lut_module.cached_tables("test ramp", build)
+    assert len(calls) == 2 and np.array_equal(third[0].values, first[0].values)
+    monkeypatch.setenv(lut_module.CACHE_ENV, "/proc/no-such-place")  # unwritable: still works
+    assert lut_module.cached_tables("test ramp", build)[0].size == first[0].size

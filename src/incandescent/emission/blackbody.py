@@ -17,19 +17,28 @@ from numpy.typing import NDArray
 from incandescent.emission.base import Bands, EmissionModel
 from incandescent.spectra.bins import bin_luts, make_bins
 from incandescent.spectra.blackbody import blackbody_xyz
-from incandescent.spectra.lut import T_MAX_K, EmissionLUT, build_emission_lut
+from incandescent.spectra.lut import T_MAX_K, EmissionLUT, build_emission_lut, cached_tables
 
 
 @functools.lru_cache(maxsize=16)
 def blackbody_lut(observer: str, constants: str) -> EmissionLUT:
-    """The T ↦ XYZ(B(T)) table (Y in cd/m²), T_min … T_MAX_K."""
-    return build_emission_lut(T_MAX_K, lambda t: blackbody_xyz(t, observer, constants))
+    """The T ↦ XYZ(B(T)) table (Y in cd/m²), T_min … T_MAX_K (kept on disk between runs)."""
+
+    def build():
+        return [build_emission_lut(T_MAX_K, lambda t: blackbody_xyz(t, observer, constants))]
+
+    return cached_tables(f"blackbody {observer} {constants} {T_MAX_K}", build)[0]
 
 
 @functools.lru_cache(maxsize=8)
 def _bins_and_tables(n: int, alpha: float, observer: str, constants: str):
-    bins = make_bins(n, alpha, observer)
-    return bins, tuple(bin_luts(bins, T_MAX_K, observer, constants))
+    bins = make_bins(n, alpha, observer)  # the tables depend on the bin edges (n), not on α
+
+    def build():
+        return bin_luts(bins, T_MAX_K, observer, constants)
+
+    key = f"blackbody bins {n} {observer} {constants} {T_MAX_K}"
+    return bins, tuple(cached_tables(key, build))
 
 
 class BlackbodyGrey(EmissionModel):

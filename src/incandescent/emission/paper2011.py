@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from incandescent.emission.base import Bands, EmissionModel
-from incandescent.spectra.lut import T_MAX_K, EmissionLUT, build_emission_lut
+from incandescent.spectra.lut import T_MAX_K, EmissionLUT, build_emission_lut, cached_tables
 from incandescent.spectra.paper2011 import (
     PAPER_XYZ_TO_RGB,
     paper_rgb,
@@ -32,7 +32,9 @@ PAPER_CAP = 255.0
 def paper_lut(kind: str) -> EmissionLUT:
     """The paper's 19-sample sums ("spectrum") or its 590 nm sodium term ("sodium") vs T."""
     fn = paper_sodium_xyz if kind == "sodium" else paper_spectrum_xyz
-    return build_emission_lut(T_MAX_K, fn)
+    return cached_tables(f"paper2011 {kind} {T_MAX_K}", lambda: [build_emission_lut(T_MAX_K, fn)])[
+        0
+    ]
 
 
 class Paper2011(EmissionModel):

@@ -1,15 +1,16 @@
 """CIE colour matching functions, 360–830 nm at 1 nm.
 
-Data come from colour-science's tabulations of CIE 015:2018 (``colour.MSDS_CMFS``):
-the CIE 1931 2° and CIE 1964 10° standard observers. Loaded lazily and cached, because importing
-colour-science costs about half a second.
+The CIE 1931 2° and CIE 1964 10° standard observers of CIE 015:2018, shipped as package data
+(``spectra/data/cmf_*.csv``, written from colour-science's tabulations by
+``scripts/cie_tables.py`` and compared with colour-science in ``tests/test_cmf_data.py``), so the
+render path never imports colour-science (its import pulls in matplotlib and pandas: ~0.9 s).
 """
 
 from __future__ import annotations
 
 import functools
-import warnings
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,23 +43,16 @@ class ColourMatchingFunctions:
         return float(self.wavelength_nm[1] - self.wavelength_nm[0])
 
 
-def import_colour():
-    """Import colour-science without its warnings about optional SciPy/Matplotlib features."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        import colour
-    return colour
+#: Folder of the shipped tables.
+DATA = Path(__file__).with_name("data")
 
 
 @functools.cache
 def cmfs(observer: str = "cie1931_2") -> ColourMatchingFunctions:
     """Colour matching functions of ``observer`` (``"cie1931_2"`` default, or ``"cie1964_10"``)."""
     _validate.choice(observer, "observer", tuple(OBSERVERS))
-    data = import_colour().MSDS_CMFS[OBSERVERS[observer]]
-    wavelength = np.asarray(data.wavelengths, dtype=np.float64)
-    values = np.asarray(data.values, dtype=np.float64)
-    keep = (wavelength >= 360) & (wavelength <= 830)
-    wavelength, values = wavelength[keep], values[keep]  # boolean indexing copies: freeze after
+    rows = np.loadtxt(DATA / f"cmf_{observer}.csv", delimiter=",", dtype=np.float64)
+    wavelength, values = rows[:, 0].copy(), np.ascontiguousarray(rows[:, 1:])
     wavelength.setflags(write=False)
     values.setflags(write=False)
     return ColourMatchingFunctions(observer, wavelength, values)

@@ -15,8 +15,13 @@ T_max the table is extended when built for a volume (:func:`build_emission_lut` 
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import os
+import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -117,3 +122,62 @@ def build_emission_lut(
     values = np.asarray(fn(1.0 / w), dtype=np.float64)
     values.setflags(write=False)
     return EmissionLUT(t_min, t_max, values)
+
+
+# --- the on-disk cache of tables -----------------------------------------------------------------
+
+#: Where built tables are kept between processes (like Dr.Jit's kernel cache): the folder
+#: ``$INCANDESCENT_CACHE_DIR``, else ``$XDG_CACHE_HOME/incandescent/tables``, else
+#: ``~/.cache/incandescent/tables``.
+CACHE_ENV = "INCANDESCENT_CACHE_DIR"
+
+
+def cache_dir() -> Path:
+    given = os.environ.get(CACHE_ENV)
+    if given:
+        return Path(given)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "incandescent" / "tables"
+
+
+def cached_tables(key: str, build: Callable[[], list[EmissionLUT]]) -> list[EmissionLUT]:
+    """The tables ``build()`` makes, kept on disk under ``key`` (which must name everything the
+    values depend on; the package version is added). Best effort: an unreadable, foreign or
+    unwritable cache only means the tables are built again, never a failed render."""
+    from incandescent._version import __version__
+
+    digest = hashlib.sha256(f"{__version__}\n{key}".encode()).hexdigest()[:24]
+    path = cache_dir() / f"{digest}.npz"
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            ranges, values = data["ranges"], data["values"]
+        pairs = zip(ranges, values, strict=True)
+        tables = [_frozen_lut(t_min, t_max, v) for (t_min, t_max), v in pairs]
+        if tables and all(t.size == table_size(t.t_max_K, t.t_min_K) for t in tables):
+            return tables
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        pass
+    tables = build()
+    _store(path, tables)
+    return tables
+
+
+def _frozen_lut(t_min_K: float, t_max_K: float, values: NDArray) -> EmissionLUT:
+    values = np.array(values, dtype=np.float64)
+    values.setflags(write=False)
+    return EmissionLUT(float(t_min_K), float(t_max_K), values)
+
+
+def _store(path: Path, tables: list[EmissionLUT]) -> None:
+    """Write the cache file atomically (a temporary file renamed); errors are ignored."""
+    ranges = np.array([(t.t_min_K, t.t_max_K) for t in tables], dtype=np.float64)
+    values = np.stack([t.values for t in tables])
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(tmp, "wb") as handle:
+            np.savez(handle, ranges=ranges, values=values)
+        os.replace(tmp, path)
+    except OSError:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
