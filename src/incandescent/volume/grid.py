@@ -181,10 +181,9 @@ class Volume:
     ) -> Volume:
         """Validate and place grids; ``source`` names the data's origin in error messages;
         ``absorption_source`` says where an absorption grid came from (metadata, ``--stats``)."""
-        raw = _grid(temperature, f"{source}")
-        temp = _remapped_temperature(raw, remap or Remap(), source)
+        temp = _temperature(temperature, remap or Remap(), source)
         _check_ceiling(temp, remap or Remap(), source)
-        vacuum = temp < (remap or Remap()).cutoff_K
+        vacuum = temp < np.float64((remap or Remap()).cutoff_K)  # compared in float64
         temp[vacuum] = 0.0
         voxel = _voxel_size(voxel_size_m, temp.shape)
         kappa, how = _absorption(absorption, temp, voxel, source)
@@ -208,6 +207,21 @@ class Volume:
         return cls(_f32(temp), _f32(kappa), scale, origin, voxel, how, sodium, fractions, rule)
 
 
+def _temperature(value: ArrayLike, remap: Remap, source: str) -> NDArray:
+    """Kelvin per voxel, a new writable array. float32 input without offset or scale stays
+    float32 — (raw − 0)·1 in float64, rounded back, is raw exactly — which saves two float64
+    copies of the grid; anything else is remapped in float64."""
+    arr = np.asarray(value)
+    if arr.dtype != np.float32 or remap.offset != 0 or remap.scale != 1:
+        return _remapped_temperature(_grid(value, source), remap, source)
+    if arr.ndim != 3:
+        raise ValueError(f"{source} must be a 3-D grid (nx, ny, nz); got shape {arr.shape}")
+    if arr.size == 0:
+        raise ValueError(f"{source} is empty: shape {arr.shape}")
+    _validate.finite(arr, source)
+    return _remapped_temperature(arr.copy(), remap, source, copy=False)
+
+
 def _grid(value: ArrayLike, name: str) -> NDArray[np.float64]:
     arr = _validate.finite(_validate.real_array(value, name), name)
     if arr.ndim != 3:
@@ -217,8 +231,10 @@ def _grid(value: ArrayLike, name: str) -> NDArray[np.float64]:
     return arr
 
 
-def _remapped_temperature(raw: NDArray, remap: Remap, source: str) -> NDArray[np.float64]:
-    temp = np.array(remap.apply(raw), dtype=np.float64)
+def _remapped_temperature(
+    raw: NDArray, remap: Remap, source: str, copy: bool = True
+) -> NDArray[np.float64]:
+    temp = np.array(remap.apply(raw), dtype=np.float64) if copy else raw
     negative = temp < 0
     if remap.cutoff_K <= 0 and negative.any():
         index = tuple(int(i) for i in np.argwhere(negative)[0])
