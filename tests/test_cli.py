@@ -446,3 +446,12 @@ def test_help_keeps_the_defaults_in_brackets():
     text = " ".join(_run("render", "--help").output.split())
     for default in ("[temperature, heat or temp]", "[preset's, else y]", "[shipped]", "[xyz]"):
         assert default in text, default
+
+
+def test_bench_cold_frames_render_the_same_samples_as_warm():
+    args = ("bench", "--json", "--size", 16, "--resolution", 16, "--repeat", 1, "--scenes", "soot")
+    result = _run(*args, "--cold", "--no-reference")
+    assert result.exit_code == 0, result.output
+    cases = {r["case"]: r for r in json.loads(result.stdout)["scenes"][0]["results"]}
+    cold = cases["cpu, all threads, cold (a new volume each frame)"]
+    assert cold["samples"] == cases["cpu, all threads"]["samples"] > 0

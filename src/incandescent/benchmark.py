@@ -31,10 +31,17 @@ class Case:
     threads: int | None  # None: all
     skip_empty: bool
     resolution_divisor: int = 1
+    #: each frame renders a new Volume of the same grids (device copies, macrocells and the
+    #: volume's checks are redone): what every `incandescent render` and animation frame pays
+    cold: bool = False
 
 
-def _cases(backends: list[str], reference: bool) -> list[Case]:
+def _cases(backends: list[str], reference: bool, cold: bool = False) -> list[Case]:
     cases = []
+    if cold:
+        cases.append(
+            Case("cpu, all threads, cold (a new volume each frame)", "cpu", None, True, cold=True)
+        )
     if "cuda" in backends:
         cases.append(Case("cuda", "cuda", None, True))
     cases += [
@@ -54,6 +61,8 @@ def _time_case(case: Case, volume, resolution: int) -> dict:
     settings = RenderSettings(width=r, height=r, skip_empty=case.skip_empty)
     if case.threads:
         dr.set_thread_count(case.threads)
+    if case.cold:
+        volume = volume.replace()  # a new Volume object: nothing cached for it yet
     try:
         start = time.perf_counter()
         camera = default_camera(volume.bounds_m)  # the whole box, empty space included
@@ -91,11 +100,11 @@ def _summarise(case: Case, runs: list[dict]) -> dict:
 
 
 def _scene_report(
-    name: str, size: int, resolution: int, repeat: int, reference: bool, progress
+    name: str, size: int, resolution: int, repeat: int, reference: bool, progress, cold=False
 ) -> dict:
     scene = SCENES[name]
     label, volume = scene.label + " at {r}²", scene.build(size)
-    cases = _cases(available_backends(), reference)
+    cases = _cases(available_backends(), reference, cold)
     runs: dict[str, list[dict]] = {c.name: [] for c in cases}
     for case in cases:  # warm-up: compile kernels, fill caches
         _time_case(case, volume, resolution)
@@ -146,8 +155,10 @@ def run(
     repeat: int = 5,
     reference: bool = True,
     progress=None,
+    cold: bool = False,
 ) -> dict:
-    """Benchmark ``scene_names``; returns a JSON-able report."""
+    """Benchmark ``scene_names``; returns a JSON-able report. ``cold`` adds a case whose every
+    frame renders a new Volume (timed next to the warm cases in the same rounds)."""
     unknown = [s for s in scene_names if s not in SCENES]
     if unknown:
         raise ValueError(f"unknown bench scene {unknown[0]!r}; expected: {', '.join(SCENES)}")
@@ -161,7 +172,8 @@ def run(
         "machine": platform.processor() or platform.machine(),
         "commit": git_commit(),
         "scenes": [
-            _scene_report(s, size, resolution, repeat, reference, progress) for s in scene_names
+            _scene_report(s, size, resolution, repeat, reference, progress, cold)
+            for s in scene_names
         ],
     }
 

@@ -660,6 +660,9 @@ def bench(
     resolution: int = typer.Option(512, help="Image width and height."),
     repeat: int = typer.Option(5, help="Timed repetitions per case (median reported)."),
     reference: bool = typer.Option(True, help="Include the NumPy reference (at 1/4 resolution)."),
+    cold: bool = typer.Option(
+        False, "--cold", help="Also time frames that each render a new volume (cold)."
+    ),
 ) -> None:
     """Benchmark the backends on named synthetic scenes (samples/s, ms/frame)."""
     from incandescent import benchmark
@@ -672,6 +675,7 @@ def bench(
             repeat,
             reference,
             progress=None if as_json else console,
+            cold=cold,
         )
     except (ValueError, RuntimeError) as error:
         raise _fail(str(error)) from None
