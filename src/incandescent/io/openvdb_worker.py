@@ -33,6 +33,23 @@ vdb: Any = None
 READABLE = {"float", "vec3s", "bool"}
 
 
+#: The grids of the last file read: a read describes the grids, then densifies them, and
+#: OpenVDB should decompress each grid once. Keyed by path, size and modification time.
+_LAST: dict = {"key": None, "grids": {}}
+
+
+def _grid(path: str, name: str):
+    """Grid ``name`` of ``path``, read once while the file is unchanged."""
+    info = os.stat(path)
+    key = (path, info.st_size, info.st_mtime_ns)
+    if _LAST["key"] != key:
+        _LAST.update(key=key, grids={})
+    grids = _LAST["grids"]
+    if name not in grids:
+        grids[name] = vdb.read(path, name)
+    return grids[name]
+
+
 def _jsonable(value):
     if isinstance(value, (bool, int, float, str)) or value is None:
         return value
@@ -73,7 +90,7 @@ def _describe_grid(path: str, meta, ranges: bool = True) -> dict:
             "does not read; only float, half (read as float) and vec3s grids are read"
         )
         return info
-    grid = vdb.read(path, meta.name)
+    grid = _grid(path, meta.name)
     count = int(grid.activeVoxelCount())
     info.update(
         active_voxels=count,
@@ -98,7 +115,7 @@ def describe(request: dict) -> dict:
     if request.get("sums"):
         for info in grids:
             if info["type"] == "float" and "unreadable" not in info:
-                grid = vdb.read(path, info["name"])  # tiles count once per voxel they cover
+                grid = _grid(path, info["name"])  # tiles count once per voxel they cover
                 info["sum"] = float(sum(v["value"] * v["count"] for v in grid.citerOnValues()))
     return {"grids": grids}
 
@@ -108,7 +125,7 @@ def dense(request: dict) -> dict:
     shape = tuple(int(h) - int(l) + 1 for l, h in zip(lo, hi, strict=True))
     files = {}
     for i, name in enumerate(request["names"]):
-        grid = vdb.read(path, name)
+        grid = _grid(path, name)
         vector = grid.valueTypeName == "vec3s"
         background = grid.background
         array = np.empty(shape + ((3,) if vector else ()), dtype=np.float32)
@@ -139,6 +156,7 @@ def write(request: dict) -> dict:
             grid[key] = value
         grids.append(grid)
     vdb.write(request["path"], grids=grids)
+    _LAST.update(key=None, grids={})
     return {"written": request["path"], "grids": [g.name for g in grids]}
 
 

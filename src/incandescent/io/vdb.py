@@ -173,17 +173,18 @@ class DenseGrid:
 # public API
 
 
-def list_grids(path: str | Path) -> list[GridInfo]:
+def list_grids(path: str | Path, ranges: bool = True) -> list[GridInfo]:
     """Describe every grid in a ``.vdb`` or ``.nvdb`` file (errors name the file and problem).
 
     ``.vdb`` files are read with OpenVDB itself where it is installed (:mod:`.openvdb`), else
-    with tinyvdb."""
+    with tinyvdb. Without ``ranges`` OpenVDB leaves out the value ranges (a vector grid's range
+    visits every value in Python): what a read needs."""
     path = _checked_path(path)
     if path.suffix.lower() == ".nvdb":
         return [_nano_info(path, segment) for segment in _nano_segments(path)]
     if openvdb.interpreter():
-        _vdb_bytes(path)
-        return [_openvdb_info(grid) for grid in openvdb.describe(path)]
+        _check_vdb_file(path)
+        return [_openvdb_info(grid) for grid in openvdb.describe(path, ranges=ranges)]
     with _open_vdb(path) as handle:
         return [_vdb_info(path, grid) for grid in _vdb_grids(path, handle)]
 
@@ -193,7 +194,7 @@ def grid_sums(path: str | Path) -> dict[str, float]:
     grid that can be read; OpenVDB computes it where installed, else tinyvdb's leaf voxels."""
     path = _checked_path(path)
     if path.suffix.lower() == ".vdb" and openvdb.interpreter():
-        _vdb_bytes(path)
+        _check_vdb_file(path)
         return {g["name"]: g["sum"] for g in openvdb.describe(path, sums=True) if "sum" in g}
     out = {}
     for info in list_grids(path):
@@ -278,8 +279,7 @@ def _openvdb_info(grid: dict) -> GridInfo:
 
 def _openvdb_read(path: Path, names: list[str], max_voxels: int) -> dict[str, DenseGrid]:
     """Grids densified onto the union of their active boxes by OpenVDB (tiles expanded)."""
-    _vdb_bytes(path)
-    infos = {g["name"]: _openvdb_info(g) for g in openvdb.describe(path, ranges=False)}
+    infos = {info.name: info for info in list_grids(path, ranges=False)}
     chosen = {name: _pick(path, infos, name) for name in names}
     for name, info in chosen.items():
         if info.unreadable:
@@ -442,6 +442,31 @@ def _library_error(path: Path, what: str, error: BaseException) -> ValueError:
     return ValueError(f"{path}: {what} ({detail})")
 
 
+def _check_vdb_file(path: Path) -> None:
+    """The magic number and header counts of a file that OpenVDB will read, checked through a
+    memory map: only the header and grid descriptors are touched, not the voxel data."""
+    import mmap
+
+    try:
+        with (
+            open(path, "rb") as handle,
+            mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_READ) as data,
+        ):
+            _check_vdb_magic(path, data)
+            _check_vdb_header(path, data)
+    except ValueError as error:
+        if "cannot mmap an empty file" not in str(error):
+            raise
+        raise ValueError(f"{path}: not an OpenVDB file (it is empty)") from None
+    except OSError as error:
+        raise _library_error(path, "cannot read the file", error) from None
+
+
+def _check_vdb_magic(path: Path, data) -> None:
+    if len(data) < 8 or data[:4] != b"\x20\x42\x44\x56":  # OpenVDB magic 0x56444220 little-endian
+        raise ValueError(f"{path}: not an OpenVDB file (no OpenVDB magic number at its start)")
+
+
 def _vdb_bytes(path: Path) -> bytes:
     """The file's bytes, with its magic number and header counts checked (before any library
     trusts them)."""
@@ -449,8 +474,7 @@ def _vdb_bytes(path: Path) -> bytes:
         data = path.read_bytes()
     except OSError as error:
         raise _library_error(path, "cannot read the file", error) from None
-    if len(data) < 8 or data[:4] != b"\x20\x42\x44\x56":  # OpenVDB magic 0x56444220 little-endian
-        raise ValueError(f"{path}: not an OpenVDB file (no OpenVDB magic number at its start)")
+    _check_vdb_magic(path, data)
     _check_vdb_header(path, data)
     return data
 
@@ -477,7 +501,7 @@ _VDB_HEADER = struct.Struct("<QIIIB36s")  # magic, version, library major, minor
 _VDB_MIN_GRID_BYTES = 40
 
 
-def _check_vdb_header(path: Path, data: bytes) -> None:
+def _check_vdb_header(path: Path, data) -> None:
     """Check the counts and grid offsets in the file header before a library trusts them.
 
     tinyvdb 0.9 allocates for the grid count before reading any grid: three flipped bytes in the
@@ -508,7 +532,7 @@ def _check_vdb_header(path: Path, data: bytes) -> None:
         raise _library_error(path, "not a readable OpenVDB file, corrupt header", error) from None
 
 
-def _check_grid_offsets(data: bytes, offset: int, grids: int) -> None:
+def _check_grid_offsets(data, offset: int, grids: int) -> None:
     """Every grid's descriptor, and its end within the file (a cut file ends early)."""
     for index in range(grids):
         for _ in range(3):  # name, type, parent

@@ -263,7 +263,7 @@ def _vdb_source(path: Path) -> GridSource:
     onto the union of their active boxes, placed by the file's transform."""
     from incandescent.io import vdb
 
-    infos = vdb.list_grids(path)
+    infos = vdb.list_grids(path, ranges=False)  # names and readability are all a render needs
     unreadable = {g.name: g.unreadable for g in infos if g.unreadable is not None}
 
     def read(names: Iterable[str]) -> Grids:
