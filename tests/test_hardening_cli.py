@@ -101,7 +101,8 @@ def test_animate_rerun_with_another_width_is_refused_then_rerendered(tmp_path, s
     result = _run("animate", sequence, "-o", out, "--width", 80, "--height", 32, "--overwrite")
     assert result.exit_code == 0, result.output
     assert "4 rendered, 0 reused" in " ".join(result.output.split())
-    assert Image.open(out).size == (80, 32)
+    with Image.open(out) as video:
+        assert video.size == (80, 32)
 
 
 def test_animate_exposure_change_with_overwrite_renders_again(tmp_path, sequence):
@@ -142,7 +143,8 @@ def test_two_animate_runs_on_one_output_the_second_fails_at_once(tmp_path):
     assert first_still_running and second_seconds < 20  # it fails at once, not after the first
     keys = json.loads((tmp_path / "clip_frames" / "manifest.json").read_text())["frames"]
     assert len(keys) == 60 and len(set(keys.values())) == 60  # every frame from the first run
-    assert Image.open(out).n_frames >= 2
+    with Image.open(out) as video:
+        assert video.n_frames >= 2
 
 
 def test_a_stale_lock_of_a_killed_run_is_taken_over(tmp_path, sequence):

@@ -112,6 +112,9 @@ class _Worker:
     def close(self) -> None:
         self.process.kill()
         self.process.wait()
+        for pipe in (self.process.stdin, self.process.stdout):
+            if pipe is not None:
+                pipe.close()
 
 
 def read_timeout_s(path: Path) -> float:
@@ -132,7 +135,10 @@ def ask(path: Path, request: dict) -> dict:
         raise ValueError(f"{path}: OpenVDB is not available; {INSTALL_HINT}")
     with _LOCK:
         worker = _WORKERS.get(python)
-        if worker is None or worker.process.poll() is not None:
+        if worker is not None and worker.process.poll() is not None:
+            worker.close()  # it died since the last request
+            worker = None
+        if worker is None:
             worker = _WORKERS[python] = _Worker(python)
         timeout_s = read_timeout_s(path)
         reply = worker.ask(request, timeout_s)
