@@ -13,6 +13,7 @@ from incandescent.camera import Camera, default_camera
 from incandescent.emission import EmissionModel, models_for
 from incandescent.emission.paper2011 import PAPER_CAP
 from incandescent.renderer.backends import MarchInputs, resolve_backend, run_march
+from incandescent.renderer.backends.common import upper_samples_per_ray
 from incandescent.renderer.film import HDRImage, resolve_pixels
 from incandescent.renderer.rays import prepare_rays, ray_spec
 from incandescent.renderer.settings import RenderSettings
@@ -56,8 +57,7 @@ def render_estimate(volume: Volume, settings: RenderSettings, backend: str) -> t
     padded = float(np.prod([n + 2 for n in volume.shape]))
     grids = 1 + (volume.emission_scale is not None) + (volume.sodium_fraction is not None)
     grid_bytes = padded * (8 + 4 * (grids - 1 + len(volume.species)))
-    diagonal_voxels = float(np.linalg.norm(volume.shape))
-    samples = rays * (np.ceil(diagonal_voxels / settings.step_voxels) + 1)
+    samples = rays * upper_samples_per_ray(volume.shape, settings.step_voxels)
     return grid_bytes + rays * BYTES_PER_RAY[backend], samples
 
 

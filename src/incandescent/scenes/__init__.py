@@ -55,28 +55,10 @@ class Scene:
     display: DisplaySettings | None = None
 
 
-def _coloured(name: str, n: int) -> Volume:
-    from incandescent.scenes.species import coloured_flame
-
-    return coloured_flame(name, n)
-
-
-def _species(builder: str, n: int) -> Volume:
-    from incandescent.scenes import species
-
-    return getattr(species, builder)(n)
-
-
 def _sphere(n: int) -> Volume:
-    from incandescent.scenes.paper import paper_sphere
+    from incandescent.scenes.paper import paper_sphere  # the plate's solver stays unimported
 
     return paper_sphere(n)
-
-
-def _flame_camera() -> Camera:
-    from incandescent.scenes.species import flame_camera
-
-    return flame_camera()
 
 
 #: Line colours lie far outside sRGB: the species flames are shown gamut-clipped.
@@ -84,7 +66,7 @@ _FLAME_DISPLAY = DisplaySettings(gamut="clip")
 
 
 def _flame(name: str, build: Callable[[int], Volume], label: str) -> Scene:
-    return Scene(name, label, build, 96, _flame_camera, _FLAME_DISPLAY)
+    return Scene(name, label, build, 96, species.flame_camera, _FLAME_DISPLAY)
 
 
 SCENES: dict[str, Scene] = {
@@ -93,11 +75,11 @@ SCENES: dict[str, Scene] = {
     "soot": Scene("soot", "plume {n}³ with a graded κ grid", soot_plume, 128),
     "sphere": Scene("sphere", "the 2011 paper's soot sphere {n}³", _sphere, 64),
     **{
-        name: _flame(name, functools.partial(_coloured, name), f"{name} flame {{n}}³")
+        name: _flame(name, functools.partial(species.coloured_flame, name), f"{name} flame {{n}}³")
         for name in COLOURED_FLAME_NAMES
     },
-    "sooty": _flame("sooty", functools.partial(_species, "sooty_flame"), "sooty flame {n}³"),
-    "clean": _flame("clean", functools.partial(_species, "clean_flame"), "clean flame {n}³"),
+    "sooty": _flame("sooty", species.sooty_flame, "sooty flame {n}³"),
+    "clean": _flame("clean", species.clean_flame, "clean flame {n}³"),
 }
 
 

@@ -74,6 +74,13 @@ class MarchResult:
     ray_index: NDArray | None = None
 
 
+def upper_samples_per_ray(shape: tuple[int, ...], step_voxels: float) -> float:
+    """Most segments a ray can take: the box diagonal in steps, plus the partial ones at its ends
+    (the bound of the sample budget and of the kernels' chunk sizes; no skipping, no early
+    termination)."""
+    return float(np.ceil(np.linalg.norm(shape) / step_voxels) + 1.0)
+
+
 def trilinear_setup(p: NDArray, n: int) -> tuple[NDArray, NDArray, NDArray]:
     """Voxel indices i0, i1 and weight f along one axis for positions p (voxel units), NumPy.
 

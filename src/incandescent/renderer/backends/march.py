@@ -20,7 +20,12 @@ import weakref
 
 import numpy as np
 
-from incandescent.renderer.backends.common import THIN_STEP, MarchInputs, MarchResult
+from incandescent.renderer.backends.common import (
+    THIN_STEP,
+    MarchInputs,
+    MarchResult,
+    upper_samples_per_ray,
+)
 from incandescent.renderer.backends.jit import array_module, device_name, drjit_module
 from incandescent.renderer.rays import lane_order
 
@@ -41,6 +46,7 @@ class _Kernel:
         self.medium, self.scale = _device_grids(m, vol)
         kappa0 = vol.two_valued_absorption_per_m
         self.kappa0 = None if kappa0 is None else np.float32(kappa0)
+        self.first_table = lut  # every table shares its spacing (checked in table())
         self.lut_size, self.lut_t_min = lut.size, np.float32(lut.t_min_K)
         self.lut_w_min, self.lut_inv_dw = np.float32(lut.w_min), np.float32(lut.inv_dw)
         self.ds_per_voxel = np.float32(vol.voxel_size_m)
@@ -62,7 +68,8 @@ class _Kernel:
     # --- what the emission models use -----------------------------------------------------
     def table(self, lut) -> object:
         """A T ↦ XYZ table on the device, 16-byte rows (:func:`_table4`)."""
-        if lut.size != self.lut_size or lut.t_min_K != float(self.lut_t_min):
+        first = self.first_table
+        if (lut.size, lut.t_min_K, lut.t_max_K) != (first.size, first.t_min_K, first.t_max_K):
             raise ValueError("every emission table must share the 1/T spacing of the first")
         return self.m.Float(_table4(lut.values))
 
@@ -454,12 +461,8 @@ CHUNK_SECONDS = 0.25
 MIN_CHUNK_RAYS, MAX_CHUNK_RAYS = 1 << 15, 1 << 22
 
 
-def _upper_samples_per_ray(spec, settings) -> float:
-    return float(np.linalg.norm(spec.shape) / settings.step_voxels + 1.0)
-
-
 def _first_chunk(spec, settings) -> int:
-    per_ray = _upper_samples_per_ray(spec, settings)
+    per_ray = upper_samples_per_ray(spec.shape, settings.step_voxels)
     return int(np.clip(FIRST_CHUNK_SAMPLES / per_ray, MIN_CHUNK_RAYS, MAX_CHUNK_RAYS))
 
 
@@ -497,7 +500,7 @@ def march(inputs: MarchInputs, kind: str, progress=None) -> MarchResult:
     order = lane_order(spec.width, spec.height, spec.supersample)
     parts, samples, march_s = [], 0, 0.0
     start, size = 0, _first_chunk(spec, inputs.settings)
-    upper_per_ray = _upper_samples_per_ray(spec, inputs.settings)
+    upper_per_ray = upper_samples_per_ray(spec.shape, inputs.settings.step_voxels)
     with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
         K = _Kernel(m, inputs)
         while start < spec.n_total:

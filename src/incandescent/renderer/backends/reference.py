@@ -139,8 +139,8 @@ def _spectral_eta(inputs, kappa_nm, temp, sampled, wavelength_nm, emits) -> tupl
         if model.kind == "source":
             source = model.reference_spectrum_add(source, temp, values, wavelength_nm, inputs)
     assert source is not None, "spectral bins need a source model (blackbody)"
-    coefficients = [(mo, v) for mo, v in zip(inputs.models, sampled, strict=True)]
-    coefficients = [(mo, v) for mo, v in coefficients if mo.kind == "coefficient"]
+    pairs = zip(inputs.models, sampled, strict=True)
+    coefficients = [(model, values) for model, values in pairs if model.kind == "coefficient"]
     if not coefficients:
         source[~emits] = 0.0
         return source, False
