@@ -43,6 +43,7 @@ _CORRUPT = (
 )
 
 
+_CORRUPT_BESIDES_VALUE = tuple(error for error in _CORRUPT if error is not ValueError)
 #: Peak host bytes per voxel of building a Volume from a temperature grid (float64 validation,
 #: remap and κ, float32 results), beyond the array as stored; measured ~37 on a 256³ plume.
 BYTES_PER_VOXEL = 40
@@ -89,8 +90,9 @@ def _check_stored(header: ArrayHeader, stored_bytes: int, where: str) -> None:
         )
 
 
-def _input_bytes(header: ArrayHeader, role_bytes_per_voxel: int = BYTES_PER_VOXEL) -> float:
-    return header.data_bytes + float(np.prod(header.shape, dtype=object)) * role_bytes_per_voxel
+def _input_bytes(header: ArrayHeader) -> float:
+    """The stored array plus the working set of building a Volume from it."""
+    return header.data_bytes + float(np.prod(header.shape, dtype=object)) * BYTES_PER_VOXEL
 
 
 def _check_npy(path: Path, limits: Limits) -> None:
@@ -125,19 +127,21 @@ def _np_load(path: Path, limits: Limits):
 
 
 def _npz_budget(path: Path, data, names: list[str], limits: Limits) -> None:
-    """Check the headers and memory of the grids to read, before inflating any of them."""
-    total = 0.0
-    for i, name in enumerate(names):
+    """Check the headers and memory of the grids to read, before inflating any of them: each
+    grid as stored plus its float32 copy, and the float64 working set of building the Volume
+    once, for the largest grid (whichever role it has)."""
+    headers = []
+    for name in names:
         if name not in data.files:
             continue  # reported by the reader with the grids the file has
         where = f"{path}: grid {name!r}"
         try:
-            header = _npz_header(data.zip, name, where)
-        except ValueError:
-            raise
-        except _CORRUPT as error:
+            headers.append(_npz_header(data.zip, name, where))
+        except _CORRUPT_BESIDES_VALUE as error:  # ValueErrors already name the grid
             raise ValueError(f"{where} cannot be read ({error})") from None
-        total += _input_bytes(header, BYTES_PER_VOXEL if i == 0 else 12)
+    voxels = [float(np.prod(h.shape, dtype=object)) for h in headers]
+    total = sum(h.data_bytes + 4 * n for h, n in zip(headers, voxels, strict=True))
+    total += (BYTES_PER_VOXEL - 4) * max(voxels, default=0.0)
     limits.check_memory(total, f"reading {', '.join(names)} from {path}")
 
 
