@@ -377,7 +377,8 @@ def _demo_volume(name: str, size: int | None) -> Volume:
 
 #: Smallest ``--size`` of a demo scene.
 MIN_DEMO_SIZE = 8
-#: Peak bytes per voxel of building a demo scene (float64 NumPy fields, then the Volume).
+#: Peak bytes per voxel of building a demo scene (float64 NumPy fields, then the Volume):
+#: tracemalloc peaks measured 21 (sparse) to 57 (sphere), rounded up.
 DEMO_BYTES_PER_VOXEL = 64
 
 
