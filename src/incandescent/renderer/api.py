@@ -33,6 +33,7 @@ def _check_ceiling(volume: Volume) -> None:
 
 #: Host and device bytes per camera ray of a render (lane order, loop state, per-ray outputs and
 #: their float64 copies, pixel assembly); the reference backend's lockstep NumPy march far more.
+#: Peak RSS growth measured at 1024² and 2048²: 133 B/ray (cpu); 471 B/ray at 512² (reference).
 BYTES_PER_RAY = {"reference": 1024, "cpu": 256, "cuda": 256}
 
 
