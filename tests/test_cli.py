@@ -440,7 +440,6 @@ def test_animate_takes_species_like_render(tmp_path):
     assert not np.array_equal(plain_px, na_px)  # the sodium lines changed the frames
 
 
-
 def test_help_keeps_the_defaults_in_brackets():
     """Rich markup used to eat "[temperature, heat or temp]"-like defaults from the help."""
     text = " ".join(_run("render", "--help").output.split())

@@ -212,9 +212,7 @@ def test_a_converted_blender_cache_renders_the_same_image(tmp_path):
     from incandescent.config import VolumeSection
     from incandescent.renderer import RenderSettings
 
-    direct = api.volume_from_section(
-        VolumeSection(path=BLENDER, preset="blender"), api.Remap()
-    )
+    direct = api.volume_from_section(VolumeSection(path=BLENDER, preset="blender"), api.Remap())
     assert _cli("convert", BLENDER, tmp_path / "c.vdb", "--preset", "blender").exit_code == 0
     assert _cli("convert", tmp_path / "c.vdb", tmp_path / "c.npz").exit_code == 0
     again = api.load_volume(tmp_path / "c.npz")
@@ -279,4 +277,3 @@ def test_other_value_types_are_listed_with_a_note():
     infos = {i.name: i for i in vdb.list_grids(DATA / "openvdb_types.vdb")}
     assert "bool values (a mask)" in infos["mask"].unreadable
     assert infos["velocity"].unreadable is None and infos["empty"].active_voxels == 0
-

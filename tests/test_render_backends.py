@@ -229,3 +229,38 @@ def test_llvm_check_names_what_to_install(monkeypatch, fake, expected):
     else:
         assert problem.startswith(expected)
         assert "apt-get install libllvm19" in problem and "brew install llvm" in problem
+
+
+def test_kernel_inputs_start_on_cache_lines_so_each_render_traces_one_kernel():
+    """Dr.Jit writes a mapped input's alignment into the kernel: lane arrays on 64-byte
+    boundaries and chunks of whole 64-byte lines keep one kernel (and its disk-cache entry)."""
+    from incandescent.renderer.backends import march
+
+    for offset in range(4):
+        a = march._aligned(np.arange(1000 + offset, dtype=np.uint32)[offset:])
+        assert a.ctypes.data % 64 == 0
+        np.testing.assert_array_equal(a, np.arange(offset, 1000 + offset))
+    sizes = [
+        march._next_chunk(r, s, u)
+        for r in (1 << 15, 50_001)
+        for s in (0.01, 0.3)
+        for u in (10.0, 777.0)
+    ]
+    assert all(n % march.ALIGN_LANES == 0 and n >= march.MIN_CHUNK_RAYS for n in sizes)
+
+
+def test_a_new_camera_or_seed_reuses_the_compiled_kernel(monkeypatch):
+    """Camera placement, field of view and jitter seed are kernel inputs, not constants traced
+    into it: a moving camera or a new seed does not compile the megakernel again."""
+    from incandescent.renderer.backends import march
+
+    seen: list[dict] = []
+    real = march._compile_seconds
+    monkeypatch.setattr(march, "_compile_seconds", lambda e: seen.append(e) or real(e))
+    vol = scenes.plume(12)
+    s = RenderSettings(width=24, height=20, jitter=True)
+    render(vol, Camera(eye=(0.1, 0.2, 2.0), fov_deg=40.0), s, backend="cpu")
+    seen.clear()
+    render(vol, Camera(eye=(1.5, 0.7, 1.2), fov_deg=33.0), s.replace(seed=7), backend="cpu")
+    marches = [e for e in seen if "cache_hit" in e]  # compiled kernels (not copies, reductions)
+    assert marches and all(e["cache_hit"] for e in marches)

@@ -23,6 +23,7 @@ def _tinyvdb_only(monkeypatch):
     """This file is tinyvdb's contract: OpenVDB, where installed, is switched off."""
     monkeypatch.setattr(openvdb, "interpreter", lambda: None)
 
+
 DATA = Path(__file__).parent / "data"
 TWO_GRIDS = DATA / "openvdb_two_grids.vdb"
 BLENDER = DATA / "blender_fire_0010.vdb"

@@ -210,9 +210,6 @@ def _check_count(n_frames: int) -> int:
     return int(n_frames)
 
 
-
-
-
 def _png_size(path: Path) -> tuple[int, int] | None:
     """(width, height) of a readable PNG file, None if it is missing, truncated or corrupt."""
     from PIL import Image

@@ -245,9 +245,6 @@ def render(
     _summary(image, written)
 
 
-
-
-
 def _scene(source: Path, overrides: dict):
     """The scene a CLI call describes: a scene file with the flags over it, or a volume file."""
     from incandescent.config import load_scene, scene_from_dict

@@ -173,4 +173,5 @@ def read_frames(paths: Iterable[PathLike]) -> Iterator[NDArray[np.uint8]]:
                 raise ValueError(f"{path}: expected an 8-bit image; got mode {image.mode}")
             yield np.asarray(image.convert("RGB"))
 
+
 __all__ = ["VIDEO_SUFFIXES", "read_frames", "write_gif", "write_mp4"]

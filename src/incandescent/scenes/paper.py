@@ -164,6 +164,7 @@ class PlateScene:
     n_frames: int = 250
     voxel_size_m: float = 0.01
     absorption_per_m: float = 2.0
+
     def __post_init__(self) -> None:
         shape = tuple(self.shape)
         if len(shape) != 3 or any(

@@ -81,6 +81,4 @@ def bin_luts(
     constants: str = "codata2018",
 ) -> list[EmissionLUT]:
     """One 1/T-uniform table per bin (same spacing as the blackbody table)."""
-    return build_emission_luts(
-        t_max_K, lambda t: bin_xyz(bins, t, observer, constants), bins.count
-    )
+    return build_emission_luts(t_max_K, lambda t: bin_xyz(bins, t, observer, constants), bins.count)

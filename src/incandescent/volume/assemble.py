@@ -47,9 +47,7 @@ def _grid_name(role: str, names: dict[str, str], available: tuple[str, ...], req
     return resolve_grid_name(role, available, required=required)
 
 
-def volume_from_section(
-    spec: VolumeSection, remap: Remap, limits: Limits | None = None
-) -> Volume:
+def volume_from_section(spec: VolumeSection, remap: Remap, limits: Limits | None = None) -> Volume:
     """The Volume a scene's ``[volume]`` section describes: file, grid roles, preset, remap.
     NumPy grids are checked against ``limits`` from their headers before they are read."""
     source = open_grids(spec.path, spec.axes, limits)
@@ -120,5 +118,3 @@ def _z_up_to_y_up(grids: dict, origin, voxel_size_m):
         return rotated, None
     length_y = np.asarray(grids["temperature"]).shape[1] * (voxel_size_m or 0.0)
     return rotated, (origin[0], origin[2], -(origin[1] + length_y))
-
-

@@ -222,8 +222,13 @@ def _temperature(value: ArrayLike, remap: Remap, source: str) -> NDArray:
     return _remapped_temperature(arr.copy(), remap, source, copy=False)
 
 
-def _grid(value: ArrayLike, name: str) -> NDArray[np.float64]:
-    arr = _validate.finite(_validate.real_array(value, name), name)
+def _grid(value: ArrayLike, name: str) -> NDArray:
+    """A finite 3-D grid: float32 input as it is (every grid is stored in float32, so widening it
+    first would only cost two passes), any other real dtype as float64."""
+    arr = np.asarray(value)
+    if arr.dtype != np.float32:
+        arr = _validate.real_array(arr, name)
+    arr = _validate.finite(arr, name)
     if arr.ndim != 3:
         raise ValueError(f"{name} must be a 3-D grid (nx, ny, nz); got shape {arr.shape}")
     if arr.size == 0:
@@ -283,16 +288,15 @@ def _origin(origin_m: ArrayLike | None, shape: tuple[int, ...], voxel: float) ->
 
 
 def _absorption(value, temp: NDArray, voxel: float, source: str) -> tuple[NDArray, str]:
+    """κ per voxel in 1/m, a new writable float32 array (values rounded once from float64)."""
     if value is None:
         kappa = DEFAULT_OPTICAL_DEPTH / (voxel * max(temp.shape))
-        grid = np.where(temp >= DEFAULT_ABSORPTION_MIN_K, kappa, 0.0)
+        grid = np.where(temp >= DEFAULT_ABSORPTION_MIN_K, np.float32(kappa), np.float32(0.0))
         return grid, f"default: {kappa:g} 1/m where T >= {DEFAULT_ABSORPTION_MIN_K:g} K"
     if np.ndim(value) == 0:
         kappa = _nonnegative_scalar(value, "absorption (1/m)")
-        return np.full(temp.shape, kappa), f"constant {kappa:g} 1/m"
-    given = _optional_grid(value, temp.shape, "absorption", source)
-    assert given is not None  # value is not None here
-    return given.astype(np.float64), "grid"
+        return np.full(temp.shape, kappa, dtype=np.float32), f"constant {kappa:g} 1/m"
+    return _checked_grid(value, temp.shape, "absorption", source), "grid"
 
 
 def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] | None:
@@ -300,6 +304,11 @@ def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] 
         return None
     if np.ndim(value) == 0:
         return _f32(np.full(shape, _nonnegative_scalar(value, name)))
+    return _f32(_checked_grid(value, shape, name, source))
+
+
+def _checked_grid(value, shape, name: str, source: str) -> NDArray[np.float32]:
+    """A non-negative finite grid of ``shape`` as a new writable float32 array."""
     grid = _grid(value, f"{source}: {name}")
     if grid.shape != shape:
         raise ValueError(
@@ -308,7 +317,7 @@ def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] 
     if (grid < 0).any():
         index = tuple(int(i) for i in np.argwhere(grid < 0)[0])
         raise ValueError(f"{source}: {name} must be >= 0; got {grid[index]:g} at voxel {index}")
-    return _f32(grid)
+    return np.array(grid, dtype=np.float32)
 
 
 def _fraction_grid(value, shape, name: str, source: str):
