@@ -72,6 +72,11 @@ def test_two_valued_absorption_is_detected():
     assert Volume.from_arrays(temp, absorption=0.0).two_valued_absorption_per_m is None
     assert scenes.plume(16).two_valued_absorption_per_m is not None  # the bench scenes: one of each
     assert scenes.soot_plume(16).two_valued_absorption_per_m is None
+    all_vacuum = Volume.from_arrays(temp, absorption=2.0, remap=Remap(cutoff_K=2000.0))
+    assert all_vacuum.two_valued_absorption_per_m is None
+    # what from_arrays knows from how κ was made equals a scan of the grid (replace() forgets)
+    for vol in (Volume.from_arrays(temp), Volume.from_arrays(temp, absorption=2.0), all_vacuum):
+        assert vol.replace().two_valued_absorption_per_m == vol.two_valued_absorption_per_m
 
 
 def test_device_grid_layouts_are_edge_padded_copies():

@@ -204,7 +204,11 @@ class Volume:
         if remap != Remap():
             rule += f"; T = (raw − {remap.offset:g})·{remap.scale:g} K"
             rule += f", vacuum below {remap.cutoff_K:g} K" if remap.cutoff_K else ""
-        return cls(_f32(temp), _f32(kappa), scale, origin, voxel, how, sodium, fractions, rule)
+        volume = cls(_f32(temp), _f32(kappa), scale, origin, voxel, how, sodium, fractions, rule)
+        if absorption is None or np.ndim(absorption) == 0:  # κ ∈ {0, κ₀} by construction
+            peak = float(volume.absorption_per_m.max())  # no scan for other values needed
+            volume._cache["two_valued_kappa"] = peak if peak > 0 else None
+        return volume
 
 
 def _temperature(value: ArrayLike, remap: Remap, source: str) -> NDArray:
