@@ -132,7 +132,9 @@ def test_settings_reject_bad_values(kwargs, match):
 
 
 def test_render_rejects_non_volume():
-    with pytest.raises(TypeError, match="volume must be an incandescent.Volume; got ndarray"):
+    with pytest.raises(
+        TypeError, match="volume must be an incandescent Volume or SparseVolume; got ndarray"
+    ):
         render(np.zeros((2, 2, 2)))  # type: ignore[arg-type]
 
 

@@ -60,6 +60,10 @@ class Limits:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
                 raise ValueError(f"limit {name} must be a number > 0; got {value!r}")
 
+    def memory_bytes(self) -> float:
+        """The memory limit now: ``max_memory_bytes``, or what the machine has available."""
+        return available_memory_bytes() if self.max_memory_bytes is None else self.max_memory_bytes
+
     def check_memory(self, need_bytes: float, what: str) -> None:
         """Refuse ``what`` when it needs more memory than the limit."""
         limit: float

@@ -137,6 +137,9 @@ OPT_SPECIES = typer.Option(
     "Li=lithium); lines from the shipped table or --line-table.",
 )
 OPT_LINE_TABLE = typer.Option(None, help="Species line table (.csv/.toml) [shipped].")
+OPT_LAYOUT = typer.Option(
+    None, help="Grid layout: auto | dense | sparse (occupied 8³ bricks only) [auto]."
+)
 OPT_MAX_MEMORY = typer.Option(None, help=MAX_MEMORY_HELP)
 OPT_MAX_SAMPLES = typer.Option(None, help=MAX_SAMPLES_HELP)
 
@@ -215,6 +218,7 @@ def render(
     line_table: Path = OPT_LINE_TABLE,
     stats: Path = typer.Option(None, help="Write render statistics (JSON) to this file."),
     overwrite: bool = typer.Option(None, "--overwrite", help="Replace existing output files."),
+    layout: str = OPT_LAYOUT,
     max_memory: float = OPT_MAX_MEMORY,
     max_samples: float = OPT_MAX_SAMPLES,
 ) -> None:
@@ -313,6 +317,7 @@ def _overrides(f: dict) -> dict:
             "brightness": f.get("brightness"),
             "paper_exponent": f.get("paper_exponent"),
             "line_table": None if f.get("line_table") is None else str(f.get("line_table")),
+            "layout": f.get("layout"),
         },
         "display": {
             "exposure_ev": f.get("exposure"),

@@ -222,6 +222,7 @@ class RenderSection(_Section):
     line_table: str | None = None
     spectral_bins: int = RenderSettings.spectral_bins
     soot_alpha: float = RenderSettings.soot_alpha
+    layout: str = RenderSettings.layout
 
     @model_validator(mode="after")
     def _check(self) -> RenderSection:

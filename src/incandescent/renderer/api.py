@@ -13,15 +13,18 @@ from incandescent.camera import Camera, default_camera
 from incandescent.emission import EmissionModel, models_for
 from incandescent.emission.paper2011 import PAPER_CAP
 from incandescent.renderer.backends import MarchInputs, resolve_backend, run_march
+from incandescent.renderer.backends.bricks import brick_bytes
 from incandescent.renderer.backends.common import upper_samples_per_ray
 from incandescent.renderer.film import HDRImage, resolve_pixels
+from incandescent.renderer.layout import layout_volume
 from incandescent.renderer.rays import prepare_rays, ray_spec
 from incandescent.renderer.settings import RenderSettings
 from incandescent.spectra.lut import T_MAX_K
 from incandescent.volume import Volume
+from incandescent.volume.sparse import SparseVolume
 
 
-def _check_ceiling(volume: Volume) -> None:
+def _check_ceiling(volume: Volume | SparseVolume) -> None:
     """The tables end at T_MAX_K, which no volume from ``Volume.from_arrays`` exceeds
     (``volume.grid.T_CEILING_K``); a Volume built otherwise is refused here."""
     if volume.max_temperature_K > T_MAX_K:
@@ -39,30 +42,42 @@ BYTES_PER_RAY = {"reference": 1024, "cpu": 256, "cuda": 256}
 
 def _check_types(volume, camera, settings) -> None:
     for value, kind, name in (
-        (volume, Volume, "volume"),
+        (volume, (Volume, SparseVolume), "volume"),
         (camera, (Camera, type(None)), "camera"),
         (settings, (RenderSettings, type(None)), "settings"),
     ):
         if not isinstance(value, kind):
-            want = kind.__name__ if isinstance(kind, type) else f"{kind[0].__name__} or None"
+            want = (
+                kind.__name__
+                if isinstance(kind, type)
+                else f"{kind[0].__name__} or {kind[1].__name__}"
+            )
+            want = want.replace(" or NoneType", " or None")
             raise TypeError(
                 f"{name} must be an incandescent {want}; got {type(value).__name__} {value!r:.60}"
             )
 
 
-def render_estimate(volume: Volume, settings: RenderSettings, backend: str) -> tuple[float, float]:
+def render_estimate(
+    volume: Volume | SparseVolume, settings: RenderSettings, backend: str
+) -> tuple[float, float]:
     """(bytes, samples) a render needs at most: padded device grids plus per-ray state, and one
     sample per step along the box diagonal for every ray (the upper bound: no skipping, no
     early termination)."""
     rays = float(settings.width * settings.height * settings.supersample**2)
-    padded = float(np.prod([n + 2 for n in volume.shape]))
-    grids = 1 + (volume.emission_scale is not None) + (volume.sodium_fraction is not None)
-    grid_bytes = padded * (8 + 4 * (grids - 1 + len(volume.species)))
+    if isinstance(volume, SparseVolume):
+        grid_bytes = brick_bytes(volume, packed=True)
+    else:
+        padded = float(np.prod([n + 2 for n in volume.shape]))
+        grids = 1 + (volume.emission_scale is not None) + (volume.sodium_fraction is not None)
+        grid_bytes = padded * (8 + 4 * (grids - 1 + len(volume.species)))
     samples = rays * upper_samples_per_ray(volume.shape, settings.step_voxels)
     return grid_bytes + rays * BYTES_PER_RAY[backend], samples
 
 
-def check_budget(volume: Volume, settings: RenderSettings, backend: str, limits: Limits) -> None:
+def check_budget(
+    volume: Volume | SparseVolume, settings: RenderSettings, backend: str, limits: Limits
+) -> None:
     """Refuse a render whose memory or samples exceed ``limits`` (:mod:`incandescent.budget`)."""
     need, samples = render_estimate(volume, settings, backend)
     what = f"rendering {settings.width}×{settings.height} of a {volume.shape} volume"
@@ -71,7 +86,7 @@ def check_budget(volume: Volume, settings: RenderSettings, backend: str, limits:
 
 
 def render(
-    volume: Volume,
+    volume: Volume | SparseVolume,
     camera: Camera | None = None,
     settings: RenderSettings | None = None,
     backend: str | None = "auto",
@@ -90,30 +105,36 @@ def render(
     volume and settings).
     """
     _check_types(volume, camera, settings)
-    settings = settings or RenderSettings()
+    settings, limits = settings or RenderSettings(), limits or Limits()
     camera = camera or default_camera(volume.content_bounds_m)
     name = resolve_backend(backend)
-    check_budget(volume, settings, name, limits or Limits())
+    _check_ceiling(volume)
+    models = models_for(volume, settings) if models is None else tuple(models)
+    volume = layout_volume(volume, settings, models, name, limits)
+    check_budget(volume, settings, name, limits)
     inputs = _march_inputs(volume, camera, settings, name, models)
     result = run_march(inputs, name, progress)
     return _assemble(inputs, result, name, camera)
 
 
-def _march_inputs(volume, camera, settings, backend: str, models=None) -> MarchInputs:
-    _check_ceiling(volume)
-    models = models_for(volume, settings) if models is None else tuple(models)
+def _march_inputs(volume, camera, settings, backend: str, models) -> MarchInputs:
     cells = None
-    if settings.skip_empty and backend != "reference":
+    if settings.skip_empty and backend != "reference" and isinstance(volume, SparseVolume):
+        cells = volume.macrocells(settings.macrocell_voxels)  # κ only (``layout``)
+    elif settings.skip_empty and backend != "reference":
         cells = volume.macrocells(settings.macrocell_voxels, *_occupancy(models))
     rays = prepare_rays(camera, volume, settings) if backend == "reference" else None
     return MarchInputs(rays, volume, models, cells, settings, ray_spec(camera, volume, settings))
 
 
-def _occupancy(models) -> tuple[str, Callable[[Volume], np.ndarray]]:
+def _occupancy(models) -> tuple[str, Callable[[Volume], np.ndarray] | None]:
     """(cache key, grid) of where the models may emit: κ > 0 widened by each model's own
-    occupancy, or the display model's alone (the paper ignores absorption)."""
-    key = repr(tuple(model.occupancy_key for model in models))
+    occupancy, or the display model's alone (the paper ignores absorption); ("absorption", None)
+    where that is κ > 0 alone (the key the layout choice shares)."""
     display = next((m for m in models if m.kind == "display"), None)
+    if display is None and all(type(m).occupancy is EmissionModel.occupancy for m in models):
+        return "absorption", None
+    key = repr(tuple(model.occupancy_key for model in models))
 
     def grid(volume: Volume) -> np.ndarray:
         if display is not None:
@@ -167,5 +188,6 @@ def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRI
         "incandescent_version": __version__,
         "python": platform.python_version(),
         "emission_models": ", ".join(model.name for model in inputs.models),
+        "layout": "sparse" if isinstance(inputs.volume, SparseVolume) else "dense",
     }
     return HDRImage(xyz, tr, s.space, metadata, depth, display_rgb)

@@ -9,6 +9,9 @@ import numpy as np
 from incandescent import _validate
 
 BRIGHTNESS_LAWS = ("physical", "paper")
+#: Device layouts of the grids: "dense" padded grids, "sparse" 8³ bricks of the occupied leaves
+#: (``renderer.backends.layout``), "auto" chooses by occupancy and memory.
+LAYOUTS = ("auto", "dense", "sparse")
 #: Default paper-mode gain per voxel of path: 32 voxels of 3000 K gas sum to 255 (our choice; the
 #: paper does not give its scale).
 PAPER_GAIN = 255.0 / (32.0 * 3000.0**1.5)
@@ -50,6 +53,8 @@ class RenderSettings:
     soot_alpha: the soot exponent α (1: Rayleigh limit; 1.39: Hottel & Broughton 1932).
     line_table: a species line table file (.csv/.toml) for the volume's species fractions;
         None: the shipped table (``incandescent.spectra.lines``).
+    layout: "auto", "dense" or "sparse": how the grids are laid out for the march (images are
+        equal; sparse keeps only occupied 8³ bricks, see ``renderer.layout``).
     """
 
     width: int = 512
@@ -71,6 +76,7 @@ class RenderSettings:
     line_table: str | None = None
     spectral_bins: int = 0
     soot_alpha: float = 1.0
+    layout: str = "auto"
 
     def __post_init__(self) -> None:
         for name in ("width", "height", "supersample", "macrocell_voxels", "seed", "spectral_bins"):
@@ -89,6 +95,7 @@ class RenderSettings:
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"seed must be a non-negative integer; got {self.seed!r}")
         _validate.choice(self.brightness, "brightness law", BRIGHTNESS_LAWS)
+        _validate.choice(self.layout, "layout", LAYOUTS)
         _validate.positive_scalar(self.paper_gain, "paper_gain")
         _validate.positive_scalar(self.paper_min_K, "paper_min_K")
         if isinstance(self.spectral_bins, bool) or not isinstance(self.spectral_bins, int):

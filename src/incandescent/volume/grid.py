@@ -64,8 +64,27 @@ class Remap:
         return cls(offset=-low / (high - low), scale=high - low, cutoff_K=cutoff_K)
 
 
+class Placed:
+    """The box of a grid of ``shape`` voxels of side ``voxel_size_m`` with its corner at
+    ``origin_m`` (dense :class:`Volume` and sparse volumes alike)."""
+
+    origin_m: tuple[float, float, float]
+    voxel_size_m: float
+
+    @property
+    def size_m(self) -> NDArray[np.float64]:
+        """Extent of the box along x, y, z in m."""
+        shape = self.shape  # type: ignore[attr-defined]  # a field or a property of the subclass
+        return np.asarray(shape, dtype=np.float64) * self.voxel_size_m
+
+    @property
+    def bounds_m(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        lo = np.asarray(self.origin_m, dtype=np.float64)
+        return lo, lo + self.size_m
+
+
 @dataclass(frozen=True, eq=False)
-class Volume:
+class Volume(Placed):
     """Validated, placed grids ready to render. Build with :meth:`Volume.from_arrays`.
 
     Attributes
@@ -95,16 +114,6 @@ class Volume:
     @property
     def shape(self) -> tuple[int, int, int]:
         return tuple(int(n) for n in self.temperature_K.shape)  # type: ignore[return-value]
-
-    @property
-    def size_m(self) -> NDArray[np.float64]:
-        """Extent of the box along x, y, z in m."""
-        return np.asarray(self.shape, dtype=np.float64) * self.voxel_size_m
-
-    @property
-    def bounds_m(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        lo = np.asarray(self.origin_m, dtype=np.float64)
-        return lo, lo + self.size_m
 
     @property
     def content_bounds_m(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -66,7 +66,7 @@ def build_macrocells(absorption_per_m: NDArray, cell_voxels: int = 8) -> Macroce
     return MacrocellGrid(out, int(cell_voxels), empty_radius(out > 0))
 
 
-def _dilate(mask: NDArray[np.bool_]) -> NDArray[np.bool_]:
+def dilate_cells(mask: NDArray[np.bool_]) -> NDArray[np.bool_]:
     """``mask`` grown by one cell in every direction, diagonals included (Chebyshev radius 1)."""
     out = mask.copy()
     for axis in range(3):
@@ -86,6 +86,6 @@ def empty_radius(occupied: NDArray[np.bool_]) -> NDArray[np.float32]:
     reached, r = occupied.copy(), 0
     while r < limit and reached.any() and not reached.all():
         radius[reached & (radius == limit)] = r
-        reached, r = _dilate(reached), r + 1
+        reached, r = dilate_cells(reached), r + 1
     radius[reached & (radius == limit)] = r
     return radius

@@ -20,6 +20,8 @@ import weakref
 
 import numpy as np
 
+from incandescent.renderer.backends.bricks import BRICK, BRICK_VOXELS, device_bricks
+from incandescent.renderer.backends.bricks import plan as volume_plan
 from incandescent.renderer.backends.common import (
     THIN_STEP,
     MarchInputs,
@@ -28,6 +30,7 @@ from incandescent.renderer.backends.common import (
 )
 from incandescent.renderer.backends.jit import array_module, device_name, drjit_module
 from incandescent.renderer.rays import lane_order
+from incandescent.volume.sparse import SparseVolume
 
 
 class _Kernel:
@@ -41,9 +44,18 @@ class _Kernel:
         vol, lut, s = inputs.volume, inputs.lut, inputs.settings
         self.volume = vol
         self.shape = vol.shape
-        nx, ny, nz = (n + 2 for n in vol.shape)
-        self.strides = (ny * nz, nz, 1)
-        self.medium, self.scale = _device_grids(m, vol)
+        self.brick_index = None
+        self.strides: tuple[int, int, int]
+        self.medium: object
+        self.scale: object | None
+        if isinstance(vol, SparseVolume):  # 9³ bricks of the occupied leaves (``bricks``)
+            self.strides = (BRICK * BRICK, BRICK, 1)
+            self.medium, self.brick_index, self.brick_shape = _device_bricks(m, vol)
+            self.scale = None
+        else:
+            nx, ny, nz = (n + 2 for n in vol.shape)
+            self.strides = (ny * nz, nz, 1)
+            self.medium, self.scale = _device_grids(m, vol)
         kappa0 = vol.two_valued_absorption_per_m
         self.kappa0 = None if kappa0 is None else np.float32(kappa0)
         self.first_table = lut  # every table shares its spacing (checked in table())
@@ -75,6 +87,8 @@ class _Kernel:
 
     def grid(self, key: tuple, grid: np.ndarray):
         """A padded volume grid on the device, uploaded once per volume and ``key``."""
+        if self.brick_index is not None:
+            raise ValueError("the sparse layout carries T and κ only; use layout 'dense'")
         return _device_grid(self.m, self.volume, key, grid)
 
     # --- sampling -------------------------------------------------------------------------
@@ -86,13 +100,23 @@ class _Kernel:
         in the outer half voxel interpolates between two equal values (the edge rule, DESIGN §4).
         """
         dr, m = self.dr, self.m
-        index, weights = m.UInt(0), []
+        lower, weights = [], []
         for a, n in enumerate(self.shape):
             u = dr.clip(p[a], 0.0, float(n)) + 0.5  # padded voxel-centre coordinate
             i0 = dr.minimum(m.UInt(u), n)
-            index = index + i0 * self.strides[a]
+            lower.append(i0)
             weights.append(u - m.Float(i0))
-        return index, weights
+        if self.brick_index is not None:
+            return self.brick_corner(lower), weights
+        return sum((i0 * s for i0, s in zip(lower, self.strides, strict=True)), m.UInt(0)), weights
+
+    def brick_corner(self, lower):
+        """Pool index of the lower corner: brick ⌊i0 / 8⌋'s slot, then i0 mod 8 inside it."""
+        _, ny, nz = self.brick_shape
+        bx, by, bz = (i0 >> 3 for i0 in lower)
+        slot = self.dr.gather(self.m.UInt, self.brick_index, (bx * ny + by) * nz + bz)
+        lx, ly, lz = (i0 & 7 for i0 in lower)
+        return slot * BRICK_VOXELS + (lx * BRICK + ly) * BRICK + lz
 
     def trilinear(self, grid, c, kind=None):
         """Trilinear sample of a padded grid: Float values, or (κ, T) pairs packed in UInt64."""
@@ -331,6 +355,17 @@ def _device_grid(m, volume, key: tuple, grid: np.ndarray):
     if full_key not in per_volume:
         per_volume[full_key] = m.Float(_padded(grid))
     return per_volume[full_key]
+
+
+def _device_bricks(m, volume: SparseVolume):
+    """(pool, index, brick shape) of a sparse volume on the device, built once per volume."""
+    per_volume = _DEVICE_GRIDS.setdefault(volume, {})
+    key = (m.__name__, "bricks")
+    if key not in per_volume:
+        plan = volume_plan(volume)
+        packed = volume.two_valued_absorption_per_m is None
+        per_volume[key] = device_bricks(m, volume, packed, plan) + (plan.brick_shape,)
+    return per_volume[key]
 
 
 def _device_grids(m, volume):

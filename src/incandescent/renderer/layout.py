@@ -1,0 +1,92 @@
+"""Dense or sparse: which device layout a render marches (``RenderSettings.layout``).
+
+* ``dense``: every grid padded by one voxel (``backends.march``) — fastest per sample, memory
+  ∝ the whole box;
+* ``sparse``: 9³ bricks of the occupied 8³ leaves (``backends.bricks``) — memory ∝ the occupied
+  part, one more lookup per sample; images equal the dense layout's (same values read, same
+  macrocells, same samples).
+
+``auto`` takes sparse for a :class:`SparseVolume` (densifying a big cache is what it avoids) and for
+a dense volume whose occupied leaves are under :data:`AUTO_SPARSE_FRACTION` of the box, or whose
+dense layout would not fit in memory while the sparse one does; dense otherwise and whenever the
+sparse layout cannot carry the render (it marches blackbody emission from T and κ: no species
+lines, no paper mode, no emission-scale grid, 8-voxel macrocells).
+"""
+
+from __future__ import annotations
+
+from incandescent.budget import Limits
+from incandescent.emission import EmissionModel
+from incandescent.renderer.settings import RenderSettings
+from incandescent.volume import Volume
+from incandescent.volume.sparse import LEAF, SparseVolume
+
+#: Below this fraction of occupied leaves ``auto`` marches a dense volume sparse (measured: see
+#: the issue-14 note and ``benchmarks/README.md``).
+AUTO_SPARSE_FRACTION = 0.25
+
+
+def sparse_problem(volume, settings: RenderSettings, models, backend: str) -> str | None:
+    """Why the sparse layout cannot carry this render, or None."""
+    if backend == "reference":
+        return "the float64 reference marches dense grids"
+    for model in models:
+        if model.kind == "display":
+            return f"the {model.name} model is not emission–absorption"
+        plain = type(model).occupancy is EmissionModel.occupancy
+        if not plain or type(model).grids is not EmissionModel.grids:
+            return f"the {model.name} model reads grids besides T and κ"
+    if volume.emission_scale is not None or volume.sodium_fraction is not None or volume.species:
+        return "the volume has grids besides T and κ"
+    if settings.skip_empty and settings.macrocell_voxels != LEAF:
+        return f"its macrocells are its {LEAF}-voxel leaves (macrocell_voxels={LEAF})"
+    return None
+
+
+def layout_volume(
+    volume: Volume | SparseVolume,
+    settings: RenderSettings,
+    models: tuple[EmissionModel, ...],
+    backend: str,
+    limits: Limits,
+) -> Volume | SparseVolume:
+    """The volume in the layout the march uses: a :class:`SparseVolume` marches sparse."""
+    problem = sparse_problem(volume, settings, models, backend)
+    if settings.layout == "sparse" and problem:
+        raise ValueError(f"layout 'sparse' cannot render this: {problem}; use layout 'dense'")
+    if problem or settings.layout == "dense":
+        return _dense(volume, limits)
+    if isinstance(volume, SparseVolume):
+        return volume
+    if settings.layout == "sparse" or _sparse_pays(volume, limits):
+        return _sparse_of(volume)
+    return volume
+
+
+def _dense(volume, limits: Limits) -> Volume:
+    if isinstance(volume, Volume):
+        return volume
+    limits.check_memory(8.0 * float(_voxels(volume)), f"densifying a {volume.shape} sparse volume")
+    if "dense" not in volume._cache:
+        volume._cache["dense"] = volume.to_dense()
+    return volume._cache["dense"]
+
+
+def _voxels(volume) -> int:
+    nx, ny, nz = volume.shape
+    return nx * ny * nz
+
+
+def _sparse_pays(volume: Volume, limits: Limits) -> bool:
+    """Few occupied leaves (from the κ macrocells of leaf size, cached), or no room for dense."""
+    cells = volume.macrocells(LEAF)
+    if 1.0 - cells.empty_fraction < AUTO_SPARSE_FRACTION:
+        return True
+    padded = float((volume.shape[0] + 2) * (volume.shape[1] + 2) * (volume.shape[2] + 2))
+    return 8.0 * padded > limits.memory_bytes()
+
+
+def _sparse_of(volume: Volume) -> SparseVolume:
+    if "sparse" not in volume._cache:
+        volume._cache["sparse"] = SparseVolume.from_volume(volume)
+    return volume._cache["sparse"]
