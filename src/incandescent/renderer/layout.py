@@ -19,10 +19,13 @@ from incandescent.budget import Limits
 from incandescent.emission import EmissionModel
 from incandescent.renderer.settings import RenderSettings
 from incandescent.volume import Volume
+from incandescent.volume.macrocells import dilate_cells
 from incandescent.volume.sparse import LEAF, SparseVolume
 
-#: Below this fraction of occupied leaves ``auto`` marches a dense volume sparse (measured: see
-#: the issue-14 note and ``benchmarks/README.md``).
+#: Below this fraction of occupied leaves ``auto`` marches a dense volume sparse. Measured at 256³,
+#: 512² (``benchmarks/layout_cost.py``): the plume (39 % of leaves) marches faster sparse (70 vs
+#: 80 ms) but its first frame costs more (219 vs 164 ms: the leaves are gathered from the dense
+#: grid first); the sparse flame (0.6 %) is faster sparse both ways (72 vs 106 ms cold).
 AUTO_SPARSE_FRACTION = 0.25
 
 
@@ -79,8 +82,8 @@ def _voxels(volume) -> int:
 
 def _sparse_pays(volume: Volume, limits: Limits) -> bool:
     """Few occupied leaves (from the κ macrocells of leaf size, cached), or no room for dense."""
-    cells = volume.macrocells(LEAF)
-    if 1.0 - cells.empty_fraction < AUTO_SPARSE_FRACTION:
+    occupied = dilate_cells(volume.macrocells(LEAF).max_absorption > 0)  # the leaves kept, at most
+    if float(occupied.mean()) < AUTO_SPARSE_FRACTION:
         return True
     padded = float((volume.shape[0] + 2) * (volume.shape[1] + 2) * (volume.shape[2] + 2))
     return 8.0 * padded > limits.memory_bytes()

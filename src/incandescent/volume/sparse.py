@@ -94,20 +94,22 @@ class SparseVolume(Placed):
         if extra or volume.species:
             names = ", ".join(extra + [f"species {s}" for s in volume.species])
             raise ValueError(f"the sparse layout carries T and κ only; this volume has {names}")
-        blocks_t, blocks_k = _blocks(volume.temperature_K), _blocks(volume.absorption_per_m)
-        absorbs = np.any(blocks_k != 0, axis=(3, 4, 5))
-        keep = dilate_cells(absorbs) & (absorbs | np.any(blocks_t != 0, axis=(3, 4, 5)))
-        coords = np.argwhere(keep).astype(np.int32)
+        cells = volume.macrocells(LEAF)  # κ over each leaf and its border, cached on the volume
+        coords = np.argwhere(dilate_cells(cells.max_absorption > 0)).astype(np.int32)
+        leaves_t = _blocks(volume.temperature_K)[tuple(coords.T)]  # copies of these leaves only
+        leaves_k = _blocks(volume.absorption_per_m)[tuple(coords.T)]
+        keep = np.any((leaves_t != 0) | (leaves_k != 0), axis=(1, 2, 3))
         out = cls(
             volume.shape,
-            coords,
-            np.ascontiguousarray(blocks_t[keep]),
-            np.ascontiguousarray(blocks_k[keep]),
+            coords[keep],
+            leaves_t[keep],
+            leaves_k[keep],
             volume.origin_m,
             volume.voxel_size_m,
             volume.absorption_source,
             volume.temperature_source,
         )
+        out._cache[("macrocells", LEAF, "absorption")] = cells  # the same cells, exactly
         out._cache["two_valued_kappa"] = volume.two_valued_absorption_per_m
         out._cache["max_temperature_K"] = volume.max_temperature_K
         return out

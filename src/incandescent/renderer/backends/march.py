@@ -365,6 +365,7 @@ def _device_bricks(m, volume: SparseVolume):
         plan = volume_plan(volume)
         packed = volume.two_valued_absorption_per_m is None
         per_volume[key] = device_bricks(m, volume, packed, plan) + (plan.brick_shape,)
+        drjit_module().sync_thread()  # built before the march is timed, as the dense layout is
     return per_volume[key]
 
 
