@@ -28,6 +28,7 @@ CASES = {
     "soot plume (graded κ)": lambda: scenes.soot_plume(36),
     "sparse flame": lambda: scenes.sparse_flame(96),
     "edge blobs": lambda: _blobs(graded=True),
+    "fireball shell (SparseVolume)": lambda: scenes.explosion_shell(72),
 }
 CAMERAS = [
     None,

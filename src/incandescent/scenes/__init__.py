@@ -17,16 +17,19 @@ from incandescent.imaging import DisplaySettings
 from incandescent.scenes import species
 from incandescent.scenes.synthetic import (
     AMBIENT_K,
+    explosion_shell,
     plume,
     plume_temperature,
     soot_plume,
     sparse_flame,
 )
 from incandescent.volume import Volume
+from incandescent.volume.sparse import SparseVolume
 
 __all__ = [
     "AMBIENT_K",
     "COLOURED_FLAME_NAMES",
+    "explosion_shell",
     "SCENES",
     "Scene",
     "plume",
@@ -49,7 +52,7 @@ class Scene:
 
     name: str
     label: str
-    build: Callable[[int], Volume]
+    build: Callable[[int], Volume | SparseVolume]
     default_size: int = 96
     camera: Callable[[], Camera] | None = None
     display: DisplaySettings | None = None
@@ -73,6 +76,7 @@ SCENES: dict[str, Scene] = {
     "plume": Scene("plume", "plume {n}³", plume, 128),
     "sparse": Scene("sparse", "small flame in an empty {n}³ box", sparse_flame, 128),
     "soot": Scene("soot", "plume {n}³ with a graded κ grid", soot_plume, 128),
+    "shell": Scene("shell", "fireball shell in an empty {n}³ box (sparse)", explosion_shell, 256),
     "sphere": Scene("sphere", "the 2011 paper's soot sphere {n}³", _sphere, 64),
     **{
         name: _flame(name, functools.partial(species.coloured_flame, name), f"{name} flame {{n}}³")
