@@ -277,3 +277,74 @@ def test_other_value_types_are_listed_with_a_note():
     infos = {i.name: i for i in vdb.list_grids(DATA / "openvdb_types.vdb")}
     assert "bool values (a mask)" in infos["mask"].unreadable
     assert infos["velocity"].unreadable is None and infos["empty"].active_voxels == 0
+
+
+@pytest.mark.parametrize(
+    "section",
+    [
+        {"path": BLENDER, "preset": "blender"},  # z-up, turned by the leaf reader
+        {"path": FIRE_SMOKE, "preset": "blender"},  # κ from the density grid
+    ],
+    ids=["blender fire", "blender fire+smoke"],
+)
+def test_a_cache_read_as_leaves_renders_the_dense_read_image(section):
+    """Leaves straight from OpenVDB (never densified) give the dense read's volume and image."""
+    from incandescent import api
+    from incandescent.config import VolumeSection
+    from incandescent.renderer import RenderSettings
+    from incandescent.volume.sparse import SparseVolume
+
+    spec = VolumeSection(**section)
+    dense = api.volume_from_section(spec, api.Remap(), layout="dense")
+    leaves = api.volume_from_section(spec, api.Remap(), layout="sparse")
+    assert isinstance(leaves, SparseVolume) and not isinstance(dense, SparseVolume)
+    assert leaves.shape == dense.shape and leaves.voxel_size_m == dense.voxel_size_m
+    np.testing.assert_allclose(leaves.origin_m, dense.origin_m, rtol=0, atol=1e-12)
+    back = leaves.to_dense()
+    kept = back.temperature_K > 0
+    np.testing.assert_array_equal(back.absorption_per_m, dense.absorption_per_m)
+    np.testing.assert_array_equal(back.temperature_K[kept], dense.temperature_K[kept])
+    camera = api.camera_from(dense)
+    s = RenderSettings(width=40, height=48)
+    images = [api.render(v, camera, s.replace(layout=lay), "cpu")
+              for v in (dense, leaves) for lay in ("dense", "sparse")]  # fmt: skip
+    assert images[0].xyz.max() > 0
+    for image in images[1:]:
+        np.testing.assert_array_equal(image.xyz, images[0].xyz)
+        assert image.metadata["samples"] == images[0].metadata["samples"]
+
+
+def test_a_background_that_absorbs_is_not_read_as_leaves(tiled):
+    """The tiled grid's background (0.25) is density that absorbs everywhere: not sparse."""
+    from incandescent import api
+    from incandescent.config import GridNames, VolumeSection
+
+    spec = VolumeSection(path=tiled, grids=GridNames(temperature="density", absorption="density"))
+    with pytest.raises(ValueError, match=r"background values absorb \(κ = 0.25 1/m\)"):
+        api.volume_from_section(spec, api.Remap(scale=1000.0), layout="sparse")
+
+
+def test_a_cache_bigger_than_any_dense_box_reads_sparse_and_renders(tmp_path):
+    """Two small hot blobs 560 voxels apart: a 608³ box (over the old 512³ dense guard, 0.9 GB
+    per dense float grid) read as its few leaves by default, and rendered."""
+    from incandescent import api
+    from incandescent.renderer import RenderSettings
+    from incandescent.volume.sparse import SparseVolume
+
+    path = tmp_path / "far.vdb"
+    _system_python(f"""
+        import pyopenvdb as vdb
+        g = vdb.FloatGrid()
+        g.name = "temperature"
+        g.fill((0, 0, 0), (23, 23, 23), 1800.0)
+        g.fill((584, 584, 584), (607, 607, 607), 1500.0)
+        g.transform = vdb.createLinearTransform(voxelSize=0.01)
+        vdb.write("{path}", grids=[g])
+    """)
+    volume = api.load_volume(path)
+    assert isinstance(volume, SparseVolume)
+    assert (
+        volume.shape == (608, 608, 608) and len(volume.leaf_coords) == 2 * 4**3
+    )  # 3³ + a ring each
+    image = api.render(volume, None, RenderSettings(width=64, height=64), "cpu")
+    assert image.metadata["layout"] == "sparse" and image.xyz.max() > 0

@@ -22,6 +22,7 @@ from incandescent.scenes import SCENES
 
 if TYPE_CHECKING:
     from incandescent.volume import Volume
+    from incandescent.volume.sparse import SparseVolume
 
 app = typer.Typer(
     help="Physically based volumetric rendering of incandescent gas (flames, explosions, plumes).",
@@ -234,8 +235,11 @@ def render(
         if out.path is None:
             raise ValueError("no output: give -o OUT.exr|.png or [output] path in the scene file")
         _check_outputs(out.path, out.stats, out.overwrite)
-        volume = api.volume_from_section(scene.volume, scene.remap(), limits)
-        if sodium is not None:
+        from incandescent.volume import Volume  # noqa: F811 - at run time, not only for types
+
+        layout = "dense" if sodium is not None else scene.render_settings().layout
+        volume = api.volume_from_section(scene.volume, scene.remap(), limits, layout)
+        if sodium is not None and isinstance(volume, Volume):  # the paper's term: dense only
             volume = volume.with_sodium(sodium)
         start = time.perf_counter()
         camera, settings = scene.camera_for(volume), scene.render_settings()
@@ -372,7 +376,7 @@ def _summary(image, written: list[Path]) -> None:
         _say(f"  wrote {path}")
 
 
-def _demo_volume(name: str, size: int | None) -> Volume:
+def _demo_volume(name: str, size: int | None) -> Volume | SparseVolume:
     scene = SCENES[name]
     return scene.build(size or scene.default_size)
 
@@ -542,7 +546,10 @@ def convert(
         limits = _limits(max_memory, None)
         check_output(output, overwrite, VOLUME_OUTPUT_SUFFIXES, "volume")
         scene = _scene(source, _overrides(flags))
-        volume = api.volume_from_section(scene.volume, scene.remap(), limits)
+        from incandescent.volume import Volume
+
+        volume = api.volume_from_section(scene.volume, scene.remap(), limits, "dense")
+        assert isinstance(volume, Volume)  # a dense read
         written = save_volume(volume, output, overwrite=overwrite)
     _say(f"converted {source} ({volume.shape[0]}×{volume.shape[1]}×{volume.shape[2]} voxels, "
          f"voxel {volume.voxel_size_m:g} m) to {written}")  # fmt: skip
@@ -615,10 +622,11 @@ def animate(
         overrides = _overrides(flags)  # the same schema as `render` ...
         overrides.pop("output")  # ... except the output, a video or a folder here
         scene = _scene(paths[0], overrides)
+        layout = scene.render_settings().layout
 
         def volume_at(index: int):
             spec = scene.volume.model_copy(update={"path": paths[index]})
-            return api.volume_from_section(spec, scene.remap(), limits)
+            return api.volume_from_section(spec, scene.remap(), limits, layout)
 
         def frame_input(index: int) -> str:
             return f"{file_identity(paths[index])} {scene.volume!r} {scene.remap()!r}"

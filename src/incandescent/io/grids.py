@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from numpy.typing import NDArray
 
@@ -29,3 +30,8 @@ class GridSource:
     read: Callable[[Iterable[str]], Grids]
     #: per grid, what the reader did or found (axis order, unit conversion, placement, problems)
     notes: Mapping[str, str] = field(default_factory=dict)
+    #: (names, z_up) → ``io.vdb.LeafGrids``: the grids as occupied 8³ leaves, never densified
+    #: (OpenVDB files where OpenVDB is installed); None where the format has no leaves
+    read_leaves: Callable[[Iterable[str], bool], Any] | None = None
+    #: names → (voxels of their box, most active voxels of one grid), from metadata alone
+    extent: Callable[[Iterable[str]], tuple[int, int]] | None = None

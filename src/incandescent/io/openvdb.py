@@ -163,19 +163,34 @@ def describe(path: Path, sums: bool = False, ranges: bool = True) -> list[dict]:
     return ask(path, request)["grids"]
 
 
+def _box_request(op: str, path: Path, names, lo, hi, folder: str) -> dict:
+    """A request for grids ``names`` on the inclusive index box [lo, hi], files into ``folder``."""
+    return {
+        "op": op,
+        "path": str(path.resolve()),
+        "names": list(names),
+        "lo": [int(v) for v in lo],
+        "hi": [int(v) for v in hi],
+        "out": folder,
+    }
+
+
 def dense(path: Path, names: list[str], lo, hi) -> dict[str, np.ndarray]:
     """The grids ``names`` on the inclusive index box [lo, hi], float32 (vec3: (…, 3))."""
     with tempfile.TemporaryDirectory(prefix="incandescent-vdb-") as folder:
-        request = {
-            "op": "dense",
-            "path": str(path.resolve()),
-            "names": list(names),
-            "lo": [int(v) for v in lo],
-            "hi": [int(v) for v in hi],
-            "out": folder,
-        }
-        files = ask(path, request)["files"]
+        files = ask(path, _box_request("dense", path, names, lo, hi, folder))["files"]
         return {name: np.load(files[name], allow_pickle=False) for name in names}
+
+
+def leaves(path: Path, names: list[str], lo, hi, z_up: bool):
+    """The box [lo, hi] as 8³ leaves (see ``openvdb_worker.leaves``): (coords (n, 3) int32,
+    {name: (n, 8, 8, 8[, 3]) float32}, shape of the (turned) box)."""
+    with tempfile.TemporaryDirectory(prefix="incandescent-vdb-") as folder:
+        request = _box_request("leaves", path, names, lo, hi, folder) | {"z_up": bool(z_up)}
+        reply = ask(path, request)
+        coords = np.load(reply["coords"], allow_pickle=False)
+        arrays = {name: np.load(reply["files"][name], allow_pickle=False) for name in names}
+        return coords, arrays, tuple(int(n) for n in reply["shape"])
 
 
 def write(path: Path, grids: dict[str, np.ndarray], voxel_size_m: float, origin_m, metadata):

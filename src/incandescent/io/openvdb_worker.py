@@ -13,6 +13,12 @@ background, index→world matrix, metadata, and why a grid cannot be read where 
 ``{"op": "dense", "path": P, "names": [...], "lo": [i, j, k], "hi": [i, j, k], "out": DIR}`` →
 ``{"files": {name: file}}``: each grid on the inclusive box, background outside its active
 values, tiles expanded by OpenVDB (``copyToArray``); vec3 grids as (nx, ny, nz, 3).
+``{"op": "leaves", "path": P, "names": [...], "lo": …, "hi": …, "z_up": bool, "out": DIR}`` →
+``{"files": {name: file}, "coords": file, "shape": [nx, ny, nz]}``: the same box cut into 8³
+leaves from its low corner (after turning a z-up box y-up: (x, y, z) ↦ (x, z, ny − 1 − y)),
+keeping every leaf where any grid differs from its background and the 26 leaves around each
+(trilinear sampling reads one voxel into them); never the whole box at once — it is copied in
+slabs of 8 voxels along x, twice (find the leaves, then copy them).
 Every reply has ``"ok"``; failures carry ``"error"``.
 """
 
@@ -137,6 +143,85 @@ def dense(request: dict) -> dict:
     return {"files": files}
 
 
+LEAF = 8
+
+
+def _slab(grid, lo, x0: int, shape, z_up: bool) -> np.ndarray:
+    """Voxels x0 … x0 + 7 of the box (background where inactive or past the box), turned y-up
+    when ``z_up``, padded with background to whole leaves."""
+    nx, ny, nz = shape
+    vector = grid.valueTypeName == "vec3s"
+    width = min(LEAF, nx - x0)
+    array = np.empty((width, ny, nz) + ((3,) if vector else ()), dtype=np.float32)
+    array[...] = grid.background
+    grid.copyToArray(array, ijk=(lo[0] + x0, lo[1], lo[2]))
+    if z_up:  # (x, y, z) -> (x, z, ny - 1 - y); vectors turn with the grid
+        array = np.swapaxes(array, 1, 2)[:, :, ::-1]
+        if vector:
+            array = np.stack([array[..., 0], array[..., 2], -array[..., 1]], axis=-1)
+    whole = tuple(-(-n // LEAF) * LEAF for n in array.shape[:3])
+    out = np.empty(whole + array.shape[3:], dtype=np.float32)
+    out[...] = grid.background
+    out[: array.shape[0], : array.shape[1], : array.shape[2]] = array
+    return out
+
+
+def _leaf_view(slab: np.ndarray) -> np.ndarray:
+    """(ly, lz, 8, 8, 8[, 3]) leaves of one whole-leaf slab."""
+    _, ny, nz = slab.shape[:3]
+    rest = slab.shape[3:]
+    view = slab.reshape((LEAF, ny // LEAF, LEAF, nz // LEAF, LEAF) + rest)
+    return np.moveaxis(view, (1, 3), (0, 1))
+
+
+def _differs(grid, slab) -> np.ndarray:
+    """Per leaf of the slab: does any voxel differ from the grid's background?"""
+    leaves = _leaf_view(slab)
+    differ = np.any(leaves != np.asarray(grid.background, dtype=np.float32), axis=(2, 3, 4))
+    return differ.reshape(differ.shape[:2] + (-1,)).any(axis=-1) if slab.ndim == 4 else differ
+
+
+def _dilate(mask: np.ndarray) -> np.ndarray:
+    """``mask`` grown by one leaf in all 26 directions (``volume.macrocells.dilate_cells``: this
+    file runs under the system Python and cannot import the package)."""
+    out = mask.copy()
+    for axis in range(3):
+        grown = np.moveaxis(out.copy(), axis, 0)
+        view = np.moveaxis(out, axis, 0)
+        grown[1:] |= view[:-1]
+        grown[:-1] |= view[1:]
+        out = np.moveaxis(grown, 0, axis)
+    return out
+
+
+def leaves(request: dict) -> dict:
+    path, lo, hi = request["path"], tuple(request["lo"]), tuple(request["hi"])
+    shape = tuple(int(h) - int(l) + 1 for l, h in zip(lo, hi, strict=True))
+    z_up = bool(request.get("z_up"))
+    grids = [_grid(path, name) for name in request["names"]]
+    turned = (shape[0], shape[2], shape[1]) if z_up else shape
+    leaf_shape = tuple(-(-n // LEAF) for n in turned)
+    occupied = np.zeros(leaf_shape, dtype=bool)
+    for cx, x0 in enumerate(range(0, shape[0], LEAF)):
+        for grid in grids:
+            occupied[cx] |= _differs(grid, _slab(grid, lo, x0, shape, z_up))
+    keep = _dilate(occupied)
+    coords = np.argwhere(keep).astype(np.int32)
+    files = {}
+    for i, grid in enumerate(grids):
+        parts = [
+            _leaf_view(_slab(grid, lo, cx * LEAF, shape, z_up))[keep[cx]]
+            for cx in range(leaf_shape[0])
+            if keep[cx].any()
+        ]
+        values = np.concatenate(parts) if parts else np.zeros((0, LEAF, LEAF, LEAF), np.float32)
+        files[grid.name] = os.path.join(request["out"], f"leaves_{i}.npy")
+        np.save(files[grid.name], values, allow_pickle=False)
+    coords_file = os.path.join(request["out"], "coords.npy")
+    np.save(coords_file, coords, allow_pickle=False)
+    return {"files": files, "coords": coords_file, "shape": list(turned)}
+
+
 def write(request: dict) -> dict:
     """Write grids (dense ``.npy`` files) as one sparse ``.vdb``: voxels equal to the background
     (0) inactive, pruned (constant regions become tiles), index (0, 0, 0) centred at
@@ -160,7 +245,7 @@ def write(request: dict) -> dict:
     return {"written": request["path"], "grids": [g.name for g in grids]}
 
 
-OPS = {"describe": describe, "dense": dense, "write": write}
+OPS = {"describe": describe, "dense": dense, "leaves": leaves, "write": write}
 
 
 def main() -> None:  # noqa: D103

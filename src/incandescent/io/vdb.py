@@ -239,6 +239,59 @@ def read_grids(
         }
 
 
+@dataclass(frozen=True)
+class LeafGrids:
+    """Grids read as the 8³ leaves of one box (``openvdb_worker.leaves``): ``coords`` (n, 3)
+    leaf coordinates from the box's low corner, ``arrays`` name → (n, 8, 8, 8[, 3]) float32,
+    ``shape`` of the box (turned y-up when read z-up), ``origin_m`` the corner of the box's
+    voxel (0, 0, 0) in the file's axes, ``backgrounds`` each grid's background."""
+
+    coords: NDArray[np.int32]
+    arrays: dict[str, NDArray[np.float32]]
+    shape: tuple[int, int, int]
+    origin_m: tuple[float, float, float]
+    voxel_size_m: float
+    backgrounds: dict[str, float]
+
+
+def read_leaves(path: str | Path, names: Sequence[str], z_up: bool = False) -> LeafGrids:
+    """Read grids as the occupied 8³ leaves of the union of their active boxes, and the leaves
+    around them, with OpenVDB — never densifying the box (a big sparse cache stays sparse)."""
+    path = _checked_path(path)
+    names = _unique_names(path, names)
+    chosen = _readable(path, names)
+    box = _union_box(path, chosen, max_voxels=np.iinfo(np.int64).max)
+    voxel, translation = _common_transform(path, chosen)
+    coords, arrays, shape = openvdb.leaves(path, names, *box, z_up)
+    for name, values in arrays.items():
+        _check_values(path, name, values)
+    _, origin, _ = _dense_info(path, chosen[names[0]], box, voxel, translation)
+    backgrounds = {name: float(info.background or 0.0) for name, info in chosen.items()}
+    return LeafGrids(coords, arrays, shape, origin, voxel, backgrounds)  # type: ignore[arg-type]
+
+
+def box_and_active_voxels(path: str | Path, names: Sequence[str]) -> tuple[int, int]:
+    """(voxels of the union of the grids' active boxes, their most active voxels) from the
+    file's description alone."""
+    path = _checked_path(path)
+    chosen = _readable(path, _unique_names(path, names))
+    lo, hi = _union_box(path, chosen, max_voxels=np.iinfo(np.int64).max)
+    box = int(np.prod(hi - lo + 1))
+    return box, max(int(info.active_voxels or 0) for info in chosen.values())
+
+
+def _readable(path: Path, names: list[str]) -> dict[str, GridInfo]:
+    """The grids ``names`` of a ``.vdb`` OpenVDB can read, or an error naming the first not."""
+    if path.suffix.lower() != ".vdb" or not openvdb.interpreter():
+        raise ValueError(f"{path}: reading leaves needs a .vdb file and OpenVDB (python3-openvdb)")
+    infos = {info.name: info for info in list_grids(path, ranges=False)}
+    chosen = {name: _pick(path, infos, name) for name in names}
+    for name, info in chosen.items():
+        if info.unreadable:
+            raise ValueError(f"{path}: grid {name!r} {info.unreadable}")
+    return chosen
+
+
 # --------------------------------------------------------------------------------------------
 # OpenVDB itself (.vdb), through the worker of io/openvdb.py
 
@@ -279,11 +332,7 @@ def _openvdb_info(grid: dict) -> GridInfo:
 
 def _openvdb_read(path: Path, names: list[str], max_voxels: int) -> dict[str, DenseGrid]:
     """Grids densified onto the union of their active boxes by OpenVDB (tiles expanded)."""
-    infos = {info.name: info for info in list_grids(path, ranges=False)}
-    chosen = {name: _pick(path, infos, name) for name in names}
-    for name, info in chosen.items():
-        if info.unreadable:
-            raise ValueError(f"{path}: grid {name!r} {info.unreadable}")
+    chosen = _readable(path, names)
     box = _union_box(path, chosen, max_voxels)
     voxel, translation = _common_transform(path, chosen)
     arrays = openvdb.dense(path, names, *box)

@@ -220,7 +220,7 @@ def open_grids(
         )
     check_input_file(path)
     if suffix in VDB_SUFFIXES:
-        return _vdb_source(path)
+        return _vdb_source(path, limits)
     if suffix in SCIENCE_SUFFIXES:
         from incandescent.io.scientific import open_scientific
 
@@ -262,25 +262,57 @@ def _npy_reader(path: Path, data: NDArray) -> Callable[[Iterable[str]], Grids]:
     return read
 
 
-def _vdb_source(path: Path) -> GridSource:
+#: Host bytes per voxel per grid of a dense read: the float32 box, the float64 working copy of
+#: validation and remapping, the Volume's float32 grid.
+DENSE_READ_BYTES_PER_VOXEL = 4 + 8 + 4
+
+
+def _vdb_source(path: Path, limits: Limits) -> GridSource:
     """OpenVDB/NanoVDB through :mod:`incandescent.io.vdb`: the float grids it can read, densified
-    onto the union of their active boxes, placed by the file's transform."""
-    from incandescent.io import vdb
+    onto the union of their active boxes (refused when the machine's memory cannot hold it),
+    placed by the file's transform; where OpenVDB reads the file, also as sparse leaves."""
+    from incandescent.io import openvdb, vdb
 
     infos = vdb.list_grids(path, ranges=False)  # names and readability are all a render needs
     unreadable = {g.name: g.unreadable for g in infos if g.unreadable is not None}
 
-    def read(names: Iterable[str]) -> Grids:
+    def needed(names: Iterable[str]) -> list[str]:
         names = list(names)
         for name in names:  # a grid a role needs that exists but cannot be read: say why
             if name in unreadable:
                 raise ValueError(f"{path}: grid {name!r} is needed but {unreadable[name]}")
-        dense = vdb.read_grids(path, names)
+        return names
+
+    def read(names: Iterable[str]) -> Grids:
+        names = needed(names)
+        box = _dense_box_voxels(path, infos, names)
+        need = box * DENSE_READ_BYTES_PER_VOXEL * len(names)
+        limits.check_memory(need, f"reading {', '.join(names)} of {path} densely ({box} voxels)")
+        dense = vdb.read_grids(path, names, max_voxels=box)
         first = next(iter(dense.values()))
         arrays = {name: grid.values for name, grid in dense.items()}
         return Grids(arrays, first.origin_m, first.voxel_size_m)
 
-    return GridSource(path, tuple(g.name for g in infos), read)
+    sparse = path.suffix.lower() == ".vdb" and openvdb.interpreter() is not None
+    return GridSource(
+        path,
+        tuple(g.name for g in infos),
+        read,
+        read_leaves=(lambda names, z_up: vdb.read_leaves(path, needed(names), z_up))
+        if sparse
+        else None,
+        extent=(lambda names: vdb.box_and_active_voxels(path, needed(names))) if sparse else None,
+    )
+
+
+def _dense_box_voxels(path: Path, infos, names: list[str]) -> int:
+    """Voxels of the union of the named grids' active boxes (1 where none is known)."""
+    boxes = [(i.index_min, i.index_max) for i in infos if i.name in names and i.index_min]
+    if not boxes:
+        return 1
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    return int(np.prod(np.asarray(hi) - np.asarray(lo) + 1))
 
 
 @dataclass(frozen=True)

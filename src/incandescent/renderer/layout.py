@@ -20,13 +20,7 @@ from incandescent.emission import EmissionModel
 from incandescent.renderer.settings import RenderSettings
 from incandescent.volume import Volume
 from incandescent.volume.macrocells import dilate_cells
-from incandescent.volume.sparse import LEAF, SparseVolume
-
-#: Below this fraction of occupied leaves ``auto`` marches a dense volume sparse. Measured at 256³,
-#: 512² (``benchmarks/layout_cost.py``): the plume (39 % of leaves) marches faster sparse (70 vs
-#: 80 ms) but its first frame costs more (219 vs 164 ms: the leaves are gathered from the dense
-#: grid first); the sparse flame (0.6 %) is faster sparse both ways (72 vs 106 ms cold).
-AUTO_SPARSE_FRACTION = 0.25
+from incandescent.volume.sparse import AUTO_SPARSE_FRACTION, LEAF, SparseVolume
 
 
 def sparse_problem(volume, settings: RenderSettings, models, backend: str) -> str | None:

@@ -11,9 +11,10 @@ import numpy as np
 
 from incandescent.budget import Limits
 from incandescent.config import GridNames, VolumeSection
-from incandescent.io.volumes import open_grids
+from incandescent.io.volumes import DENSE_READ_BYTES_PER_VOXEL, open_grids
 from incandescent.volume.grid import Remap, Volume
 from incandescent.volume.presets import apply_preset, resolve_grid_name
+from incandescent.volume.sparse import AUTO_SPARSE_FRACTION, LEAF, SparseVolume
 
 OPTIONAL_ROLES = ("absorption", "emission_scale", "sodium_fraction")
 #: Up axis of each preset's source application (ours is +y); Blender is z-up.
@@ -27,16 +28,18 @@ def load_volume(
     absorption: float | None = None,
     voxel_size_m: float | None = None,
     remap: Remap | None = None,
-) -> Volume:
-    """Read a volume file (.npy, .npz, .vdb, .nvdb) into a validated Volume. A constant
-    ``absorption`` (1/m) overrides the file's absorption grid."""
+    layout: str = "auto",
+) -> Volume | SparseVolume:
+    """Read a volume file (.npy, .npz, .vdb, .nvdb) into a validated Volume (a SparseVolume of
+    its leaves for a sparse OpenVDB file; ``layout`` as in :func:`volume_from_section`). A
+    constant ``absorption`` (1/m) overrides the file's absorption grid."""
     spec = VolumeSection(
         path=Path(path),
         grids=GridNames(temperature=temperature_grid),
         absorption=absorption,
         voxel_size_m=voxel_size_m,
     )
-    return volume_from_section(spec, remap or Remap())
+    return volume_from_section(spec, remap or Remap(), layout=layout)
 
 
 def _grid_name(role: str, names: dict[str, str], available: tuple[str, ...], required: bool):
@@ -47,10 +50,38 @@ def _grid_name(role: str, names: dict[str, str], available: tuple[str, ...], req
     return resolve_grid_name(role, available, required=required)
 
 
-def volume_from_section(spec: VolumeSection, remap: Remap, limits: Limits | None = None) -> Volume:
+def volume_from_section(
+    spec: VolumeSection, remap: Remap, limits: Limits | None = None, layout: str = "auto"
+) -> Volume | SparseVolume:
     """The Volume a scene's ``[volume]`` section describes: file, grid roles, preset, remap.
-    NumPy grids are checked against ``limits`` from their headers before they are read."""
+    NumPy grids are checked against ``limits`` from their headers before they are read. An
+    OpenVDB file is read as sparse leaves (a :class:`SparseVolume`, never densified) when
+    ``layout`` is "sparse", or "auto" and the file is sparse or too big to densify."""
+    limits = limits or Limits()
     source = open_grids(spec.path, spec.axes, limits)
+    roles = _roles(spec, source)
+    if _reads_leaves(spec, source, roles, layout, limits):
+        return _sparse_volume(spec, source, roles, remap)
+    species_grids = {k: v for k, v in spec.species.items() if isinstance(v, str)}
+    read = source.read(sorted({n for n in roles.values() if n} | set(species_grids.values())))
+    grids = read.arrays
+    by_role: dict[str, Any] = {role: grids[name] for role, name in roles.items() if name}
+    by_role["species"] = {
+        name: grids[value] if isinstance(value, str) else value
+        for name, value in spec.species.items()
+    }
+    voxel = spec.voxel_size_m or read.voxel_size_m
+    file_origin = read.origin_m  # in the source's axes
+    if _up_axis(spec) == "z":
+        by_role, file_origin = _z_up_to_y_up(by_role, file_origin, voxel)
+        grids = {name: _rotated(g) for name, g in grids.items()}
+    return _assembled(
+        spec, source, roles, grids, by_role, remap, voxel, spec.origin_m or file_origin
+    )
+
+
+def _roles(spec: VolumeSection, source) -> dict[str, str | None]:
+    """Grid name per role (temperature or the preset's roles, then the optional ones)."""
     names = spec.grids.given()
     core_roles = PRESET_ROLES if spec.preset else ("temperature",)
     try:
@@ -61,17 +92,19 @@ def volume_from_section(spec: VolumeSection, remap: Remap, limits: Limits | None
         roles[role] = _grid_name(role, names, source.names, required=False)
     if spec.absorption is not None:
         roles["absorption"] = None
-    species_grids = {k: v for k, v in spec.species.items() if isinstance(v, str)}
-    read = source.read(sorted({n for n in roles.values() if n} | set(species_grids.values())))
-    grids = read.arrays
-    by_role: dict[str, Any] = {role: grids[name] for role, name in roles.items() if name}
-    by_role["species"] = {
-        name: grids[value] if isinstance(value, str) else value
-        for name, value in spec.species.items()
-    }
+    return roles
+
+
+def _up_axis(spec: VolumeSection) -> str:
+    return spec.up_axis or PRESET_UP_AXIS.get(spec.preset or "", "y")
+
+
+def _assembled(spec, source, roles, grids, by_role, remap, voxel, origin, box_side_m=None):
+    """Preset (if any), then :meth:`Volume.from_arrays` of the roles' grids."""
     absorption_note = repr(roles["absorption"]) if roles.get("absorption") else None
     temperature_note = f"grid {roles['temperature']!r}" if roles.get("temperature") else None
     if spec.preset:
+        names = spec.grids.given()
         out = apply_preset(spec.preset, grids, spec.preset_options, names)
         by_role["temperature"], by_role["absorption"] = (
             out["temperature_K"],
@@ -79,12 +112,6 @@ def volume_from_section(spec: VolumeSection, remap: Remap, limits: Limits | None
         )
         absorption_note = out["description"] if out["absorption_per_m"] is not None else None
         temperature_note = out["description"]
-    file_origin = read.origin_m  # in the source's axes
-    voxel = spec.voxel_size_m or read.voxel_size_m
-    up = spec.up_axis or PRESET_UP_AXIS.get(spec.preset or "", "y")
-    if up == "z":
-        by_role, file_origin = _z_up_to_y_up(by_role, file_origin, voxel)
-    origin = spec.origin_m or file_origin
     return Volume.from_arrays(
         by_role["temperature"],
         spec.absorption if spec.absorption is not None else by_role.get("absorption"),
@@ -97,7 +124,77 @@ def volume_from_section(spec: VolumeSection, remap: Remap, limits: Limits | None
         species=by_role.get("species"),
         absorption_source=None if spec.absorption is not None else absorption_note,
         temperature_source=temperature_note,
+        box_side_m=box_side_m,
     )
+
+
+def _reads_leaves(spec, source, roles, layout: str, limits: Limits) -> bool:
+    """Read sparse leaves? Only T and κ (and a preset's inputs) travel as leaves."""
+    extra = roles.get("emission_scale") or roles.get("sodium_fraction") or spec.species
+    if layout == "dense" or source.read_leaves is None or extra:
+        return False
+    if layout == "sparse":
+        return True
+    names = sorted({n for n in roles.values() if n})
+    box, active = source.extent(names)
+    dense_bytes = float(box) * DENSE_READ_BYTES_PER_VOXEL * len(names)
+    return active < AUTO_SPARSE_FRACTION * box or dense_bytes > limits.memory_bytes()
+
+
+def _sparse_volume(spec, source, roles, remap: Remap) -> SparseVolume:
+    """The roles' grids read as leaves, through the same preset and remap as a dense read."""
+    names = sorted({n for n in roles.values() if n})
+    leaves = source.read_leaves(names, _up_axis(spec) == "z")
+    count = len(leaves.coords)
+    if count == 0:
+        raise ValueError(f"{source.path}: grids {names} hold only their background values")
+    voxel = spec.voxel_size_m or leaves.voxel_size_m
+    flat = {
+        n: a.reshape((count * LEAF, LEAF, LEAF) + a.shape[4:]) for n, a in leaves.arrays.items()
+    }
+    side = voxel * max(leaves.shape)
+    volume = _assembled(spec, source, roles, flat, _by_role(roles, flat), remap, voxel, None, side)
+    _check_vacuum_background(spec, source, roles, leaves, remap, voxel, side)
+    origin = leaves.origin_m
+    if _up_axis(spec) == "z":  # the box was turned by the reader: place it as _z_up_to_y_up does
+        ny = leaves.shape[2] * voxel
+        origin = (origin[0], origin[2], -(origin[1] + ny))
+    return SparseVolume(
+        leaves.shape,
+        leaves.coords,
+        volume.temperature_K.reshape(count, LEAF, LEAF, LEAF),
+        volume.absorption_per_m.reshape(count, LEAF, LEAF, LEAF),
+        tuple(float(o) for o in (spec.origin_m or origin)),  # type: ignore[arg-type]
+        voxel,
+        volume.absorption_source,
+        volume.temperature_source,
+    )
+
+
+def _by_role(roles, grids) -> dict[str, Any]:
+    return {role: grids[name] for role, name in roles.items() if name} | {"species": {}}
+
+
+def _check_vacuum_background(spec, source, roles, leaves, remap, voxel, side) -> None:
+    """Leaves not read hold the grids' backgrounds; the sparse volume takes them as vacuum, so
+    the backgrounds must map to κ = 0 (else read densely)."""
+    shape = (1, 1, 1)
+    backgrounds = {
+        n: np.full(shape + leaves.arrays[n].shape[4:], b) for n, b in leaves.backgrounds.items()
+    }
+    volume = _assembled(
+        spec, source, roles, backgrounds, _by_role(roles, backgrounds), remap, voxel, None, side
+    )
+    kappa = float(volume.absorption_per_m.max())
+    if kappa > 0:
+        raise ValueError(
+            f"{source.path}: the grids' background values absorb (κ = {kappa:g} 1/m), so the "
+            "file is not sparse; read it densely (--layout dense)"
+        )
+
+
+def _rotated(g):
+    return np.flip(np.swapaxes(np.asarray(g), 1, 2), axis=2)
 
 
 def _z_up_to_y_up(grids: dict, origin, voxel_size_m):
@@ -111,10 +208,11 @@ def _z_up_to_y_up(grids: dict, origin, voxel_size_m):
             return g
         if isinstance(g, dict):  # species fractions
             return {name: rotate(v) for name, v in g.items()}
-        return np.flip(np.swapaxes(np.asarray(g), 1, 2), axis=2)
+        return _rotated(g)
 
     rotated = {role: rotate(g) for role, g in grids.items()}
     if origin is None:
         return rotated, None
-    length_y = np.asarray(grids["temperature"]).shape[1] * (voxel_size_m or 0.0)
+    first = next(np.asarray(g) for g in grids.values() if np.ndim(g) >= 3)
+    length_y = first.shape[1] * (voxel_size_m or 0.0)
     return rotated, (origin[0], origin[2], -(origin[1] + length_y))

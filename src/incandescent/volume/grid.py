@@ -187,15 +187,19 @@ class Volume(Placed):
         species: Mapping[str, ArrayLike | float] | None = None,
         absorption_source: str | None = None,
         temperature_source: str | None = None,
+        box_side_m: float | None = None,
     ) -> Volume:
         """Validate and place grids; ``source`` names the data's origin in error messages;
-        ``absorption_source`` says where an absorption grid came from (metadata, ``--stats``)."""
+        ``absorption_source`` says where an absorption grid came from (metadata, ``--stats``);
+        ``box_side_m``: the largest side of the box the default absorption is scaled to (default:
+        these grids'; leaves of a sparse volume pass their whole box's)."""
         temp = _temperature(temperature, remap or Remap(), source)
         _check_ceiling(temp, remap or Remap(), source)
         vacuum = temp < np.float64((remap or Remap()).cutoff_K)  # compared in float64
         temp[vacuum] = 0.0
         voxel = _voxel_size(voxel_size_m, temp.shape)
-        kappa, how = _absorption(absorption, temp, voxel, source)
+        side = voxel * max(temp.shape) if box_side_m is None else float(box_side_m)
+        kappa, how = _absorption(absorption, temp, side, source)
         if absorption_source and how == "grid":
             how = f"grid ({absorption_source})"
         kappa[vacuum] = 0.0
@@ -300,10 +304,11 @@ def _origin(origin_m: ArrayLike | None, shape: tuple[int, ...], voxel: float) ->
     return tuple(float(v) for v in origin)
 
 
-def _absorption(value, temp: NDArray, voxel: float, source: str) -> tuple[NDArray, str]:
-    """κ per voxel in 1/m, a new writable float32 array (values rounded once from float64)."""
+def _absorption(value, temp: NDArray, side_m: float, source: str) -> tuple[NDArray, str]:
+    """κ per voxel in 1/m, a new writable float32 array (values rounded once from float64);
+    the default is scaled to the box's largest side ``side_m``."""
     if value is None:
-        kappa = DEFAULT_OPTICAL_DEPTH / (voxel * max(temp.shape))
+        kappa = DEFAULT_OPTICAL_DEPTH / side_m
         grid = np.where(temp >= DEFAULT_ABSORPTION_MIN_K, np.float32(kappa), np.float32(0.0))
         return grid, f"default: {kappa:g} 1/m where T >= {DEFAULT_ABSORPTION_MIN_K:g} K"
     if np.ndim(value) == 0:

@@ -26,6 +26,13 @@ from incandescent.volume.macrocells import MacrocellGrid, dilate_cells, empty_ra
 #: Voxels along each side of a leaf (OpenVDB's LeafNode log2 dimension 3).
 LEAF = 8
 
+#: Below this fraction of occupied leaves ``auto`` marches a dense volume sparse (and reads an
+#: OpenVDB file as leaves). Measured at 256³, 512² (``benchmarks/layout_cost.py``): the plume
+#: (39 % of leaves) marches faster sparse (70 vs 80 ms) but its first frame costs more (219 vs
+#: 164 ms: the leaves are gathered from the dense grid first); the sparse flame (0.6 %) is faster
+#: sparse both ways (72 vs 106 ms cold).
+AUTO_SPARSE_FRACTION = 0.25
+
 
 @dataclass(frozen=True, eq=False)
 class SparseVolume(Placed):
