@@ -1,6 +1,6 @@
-"""Dense vs sparse layout, side by side: ms per frame (march), whole render() warm and cold, device grid bytes.
+"""Dense vs sparse layout side by side: march ms, whole render() warm and cold, grid bytes.
 
-Scenes at 512², default camera framing the box: the 256³ plume (dense gas, ~90 % of the leaves
+Scenes at 512², default camera framing the box: the 256³ plume (dense gas, ~40 % of the leaves
 occupied) and the 256³ sparse flame (a small flame in an empty box). Every case is rendered once
 untimed (compilation, layouts), then the cases are timed in interleaved rounds; medians.
 

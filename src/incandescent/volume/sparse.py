@@ -134,7 +134,12 @@ class SparseVolume(Placed):
 
     @property
     def content_bounds_m(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """World box around the voxels that absorb; the whole box if none do."""
+        """World box around the voxels that absorb; the whole box if none do (computed once)."""
+        if "content_bounds_m" not in self._cache:
+            self._cache["content_bounds_m"] = self._content_bounds()
+        return self._cache["content_bounds_m"]
+
+    def _content_bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         occupied = self.leaf_absorption_per_m > 0
         lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
         for axis in range(3):
