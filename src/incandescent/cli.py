@@ -141,6 +141,13 @@ OPT_LINE_TABLE = typer.Option(None, help="Species line table (.csv/.toml) [shipp
 OPT_LAYOUT = typer.Option(
     None, help="Grid layout: auto | dense | sparse (occupied 8³ bricks only) [auto]."
 )
+OPT_SHUTTER = typer.Option(
+    None,
+    help="Motion blur: shutter OPEN:CLOSE in frames around each frame's instant, e.g. "
+    "-0.25:0.25 (a 180° shutter) [off; needs a velocity grid].",
+)
+OPT_VELOCITY_GRID = typer.Option(None, help="Velocity grid for motion blur [velocity, vel, v].")
+OPT_VELOCITY_UNITS = typer.Option(None, help="Velocity grid units: m/s | voxels/frame [m/s].")
 OPT_MAX_MEMORY = typer.Option(None, help=MAX_MEMORY_HELP)
 OPT_MAX_SAMPLES = typer.Option(None, help=MAX_SAMPLES_HELP)
 
@@ -220,6 +227,10 @@ def render(
     stats: Path = typer.Option(None, help="Write render statistics (JSON) to this file."),
     overwrite: bool = typer.Option(None, "--overwrite", help="Replace existing output files."),
     layout: str = OPT_LAYOUT,
+    shutter: str = OPT_SHUTTER,
+    fps: float = typer.Option(None, help="Frames per second, for the shutter [24]."),
+    velocity_grid: str = OPT_VELOCITY_GRID,
+    velocity_units: str = OPT_VELOCITY_UNITS,
     max_memory: float = OPT_MAX_MEMORY,
     max_samples: float = OPT_MAX_SAMPLES,
 ) -> None:
@@ -237,8 +248,10 @@ def render(
         _check_outputs(out.path, out.stats, out.overwrite)
         from incandescent.volume import Volume  # noqa: F811 - at run time, not only for types
 
-        layout = "dense" if sodium is not None else scene.render_settings().layout
-        volume = api.volume_from_section(scene.volume, scene.remap(), limits, layout)
+        settings = scene.render_settings()
+        layout = "dense" if sodium is not None else settings.layout
+        blur_fps = settings.fps if settings.shutter is not None else None
+        volume = api.volume_from_section(scene.volume, scene.remap(), limits, layout, blur_fps)
         if sodium is not None and isinstance(volume, Volume):  # the paper's term: dense only
             volume = volume.with_sodium(sodium)
         start = time.perf_counter()
@@ -278,6 +291,19 @@ def _species(text: str | None) -> dict | None:
     return out
 
 
+def _pair(text: str | None, flag: str, expected: str) -> list[float] | None:
+    """``A:B`` → [A, B] (None when the flag was not given)."""
+    if text is None:
+        return None
+    low, sep, high = text.partition(":")
+    try:
+        if not sep:
+            raise ValueError
+        return [float(low), float(high)]
+    except ValueError:
+        raise _fail(f"{flag} must be {expected}; got {text!r}") from None
+
+
 def _overrides(f: dict) -> dict:
     """Nested scene keys for the flags that were given (None = not given)."""
     low_high = None
@@ -298,7 +324,8 @@ def _overrides(f: dict) -> dict:
             "up_axis": f.get("up_axis"),
             "species": _species(f.get("species")),
             "axes": f.get("axes"),
-            "grids": {"temperature": f.get("temperature_grid")},
+            "grids": {"temperature": f.get("temperature_grid"), "velocity": f.get("velocity_grid")},
+            "velocity_units": f.get("velocity_units"),
             "temperature": {
                 "offset": f.get("offset"),
                 "scale": f.get("scale"),
@@ -322,6 +349,10 @@ def _overrides(f: dict) -> dict:
             "paper_exponent": f.get("paper_exponent"),
             "line_table": None if f.get("line_table") is None else str(f.get("line_table")),
             "layout": f.get("layout"),
+            "shutter": _pair(
+                f.get("shutter"), "--shutter", "OPEN:CLOSE in frames (e.g. -0.25:0.25)"
+            ),
+            "fps": f.get("fps"),
         },
         "display": {
             "exposure_ev": f.get("exposure"),
@@ -593,6 +624,10 @@ def animate(
     overwrite: bool = typer.Option(
         False, help="Replace an existing video and render every frame again."
     ),
+    layout: str = OPT_LAYOUT,
+    shutter: str = OPT_SHUTTER,
+    velocity_grid: str = OPT_VELOCITY_GRID,
+    velocity_units: str = OPT_VELOCITY_UNITS,
     max_memory: float = OPT_MAX_MEMORY,
     max_samples: float = OPT_MAX_SAMPLES,
 ) -> None:
@@ -622,11 +657,12 @@ def animate(
         overrides = _overrides(flags)  # the same schema as `render` ...
         overrides.pop("output")  # ... except the output, a video or a folder here
         scene = _scene(paths[0], overrides)
-        layout = scene.render_settings().layout
+        settings = scene.render_settings()
+        blur_fps = settings.fps if settings.shutter is not None else None
 
         def volume_at(index: int):
             spec = scene.volume.model_copy(update={"path": paths[index]})
-            return api.volume_from_section(spec, scene.remap(), limits, layout)
+            return api.volume_from_section(spec, scene.remap(), limits, settings.layout, blur_fps)
 
         def frame_input(index: int) -> str:
             return f"{file_identity(paths[index])} {scene.volume!r} {scene.remap()!r}"

@@ -80,6 +80,7 @@ class GridNames(_Section):
     sodium_fraction: str | None = None
     density: str | None = None
     flame: str | None = None
+    velocity: str | None = None
 
     def given(self) -> dict[str, str]:
         """The roles named explicitly."""
@@ -142,6 +143,8 @@ class VolumeSection(_Section):
     species: dict[str, str | float] = Field(default_factory=dict)
     #: Order of the stored array axes (e.g. "zyx") where the file does not say it.
     axes: Literal["xyz", "xzy", "yxz", "yzx", "zxy", "zyx"] | None = None
+    #: Units of the velocity grid (motion blur): metres per second, or voxels per frame.
+    velocity_units: Literal["m/s", "voxels/frame"] = "m/s"
 
     @model_validator(mode="after")
     def _check(self) -> VolumeSection:
@@ -223,6 +226,8 @@ class RenderSection(_Section):
     spectral_bins: int = RenderSettings.spectral_bins
     soot_alpha: float = RenderSettings.soot_alpha
     layout: str = RenderSettings.layout
+    shutter: tuple[float, float] | None = None
+    fps: float = RenderSettings.fps
 
     @model_validator(mode="after")
     def _check(self) -> RenderSection:

@@ -21,6 +21,7 @@ from incandescent.renderer.rays import prepare_rays, ray_spec
 from incandescent.renderer.settings import RenderSettings
 from incandescent.spectra.lut import T_MAX_K
 from incandescent.volume import Volume
+from incandescent.volume.macrocells import dilated
 from incandescent.volume.sparse import SparseVolume
 
 
@@ -109,6 +110,7 @@ def render(
     camera = camera or default_camera(volume.content_bounds_m)
     name = resolve_backend(backend)
     _check_ceiling(volume)
+    _check_blur(volume, settings, name)
     models = models_for(volume, settings) if models is None else tuple(models)
     volume = layout_volume(volume, settings, models, name, limits)
     check_budget(volume, settings, name, limits)
@@ -123,8 +125,33 @@ def _march_inputs(volume, camera, settings, backend: str, models) -> MarchInputs
         cells = volume.macrocells(settings.macrocell_voxels)  # κ only (``layout``)
     elif settings.skip_empty and backend != "reference":
         cells = volume.macrocells(settings.macrocell_voxels, *_occupancy(models))
+        cells = dilated(cells, _blur_rings(volume, settings))
     rays = prepare_rays(camera, volume, settings) if backend == "reference" else None
     return MarchInputs(rays, volume, models, cells, settings, ray_spec(camera, volume, settings))
+
+
+def _check_blur(volume, settings: RenderSettings, backend: str) -> None:
+    """A shutter needs a velocity grid, and a backend that advects (not the reference)."""
+    if settings.shutter is None:
+        return
+    if volume.velocity_m_s is None:
+        raise ValueError(
+            f"shutter {settings.shutter} is set but the volume has no velocity grid to blur "
+            "along (give one: Volume.from_arrays(velocity_m_s=...), or the scene's "
+            "volume.grids.velocity)"
+        )
+    if backend == "reference":
+        raise ValueError("motion blur runs on the cpu and cuda backends, not the reference")
+
+
+def _blur_rings(volume, settings: RenderSettings) -> int:
+    """Macrocells a blurred sample may read away from its own: the largest displacement
+    max|v_i|·max|t| along any axis, in cells (DESIGN §6: skipping stays exact)."""
+    shutter = settings.shutter_s
+    if shutter is None or volume.velocity_m_s is None:
+        return 0
+    reach = volume.max_speed_m_s * max(abs(t) for t in shutter) / volume.voxel_size_m
+    return int(np.ceil(reach / settings.macrocell_voxels))
 
 
 def _occupancy(models) -> tuple[str, Callable[[Volume], np.ndarray] | None]:

@@ -35,6 +35,8 @@ def sparse_problem(volume, settings: RenderSettings, models, backend: str) -> st
             return f"the {model.name} model reads grids besides T and κ"
     if volume.emission_scale is not None or volume.sodium_fraction is not None or volume.species:
         return "the volume has grids besides T and κ"
+    if settings.shutter is not None and volume.velocity_m_s is not None:
+        return "motion blur reads the velocity grid, which the sparse layout does not carry"
     if settings.skip_empty and settings.macrocell_voxels != LEAF:
         return f"its macrocells are its {LEAF}-voxel leaves (macrocell_voxels={LEAF})"
     return None

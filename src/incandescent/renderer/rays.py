@@ -104,6 +104,8 @@ class RaySpec:
     shape: tuple[int, int, int]
     jitter: bool
     key: int  # lowbias32(seed + golden ratio): XORed into each ray index before hashing
+    #: motion blur: the shutter interval in s from the frame's instant, or None (no blur)
+    shutter_s: tuple[float, float] | None = None
 
     @property
     def n_total(self) -> int:
@@ -135,6 +137,7 @@ def ray_spec(camera: Camera, volume: Volume, settings: RenderSettings) -> RaySpe
         volume.shape,
         settings.jitter,
         key,
+        settings.shutter_s,
     )
 
 

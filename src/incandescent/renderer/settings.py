@@ -55,6 +55,11 @@ class RenderSettings:
         None: the shipped table (``incandescent.spectra.lines``).
     layout: "auto", "dense" or "sparse": how the grids are laid out for the march (images are
         equal; sparse keeps only occupied 8³ bricks, see ``renderer.layout``).
+    shutter: (open, close) in frames relative to the frame's instant (e.g. (-0.25, 0.25): a
+        180° shutter centred on it), or None: no motion blur. Each ray gets a time in it
+        (stratified over the N×N rays of a pixel) and κ, T are sampled at x − v(x)·t from the
+        volume's velocity grid (first-order backward advection, as Cycles and Arnold do).
+    fps: frames per second: a frame lasts 1/fps s (converts the shutter to seconds).
     """
 
     width: int = 512
@@ -77,6 +82,8 @@ class RenderSettings:
     spectral_bins: int = 0
     soot_alpha: float = 1.0
     layout: str = "auto"
+    shutter: tuple[float, float] | None = None
+    fps: float = 24.0
 
     def __post_init__(self) -> None:
         for name in ("width", "height", "supersample", "macrocell_voxels", "seed", "spectral_bins"):
@@ -96,6 +103,12 @@ class RenderSettings:
             raise ValueError(f"seed must be a non-negative integer; got {self.seed!r}")
         _validate.choice(self.brightness, "brightness law", BRIGHTNESS_LAWS)
         _validate.choice(self.layout, "layout", LAYOUTS)
+        _check_shutter(self.shutter)
+        if self.shutter is not None:  # a list from a scene file: store a tuple of floats
+            object.__setattr__(self, "shutter", tuple(float(v) for v in self.shutter))
+        fps = _validate.positive_scalar(self.fps, "fps")
+        if fps > 10_000:
+            raise ValueError(f"fps must be <= 10000 frames per second; got {self.fps!r}")
         _validate.positive_scalar(self.paper_gain, "paper_gain")
         _validate.positive_scalar(self.paper_min_K, "paper_min_K")
         if isinstance(self.spectral_bins, bool) or not isinstance(self.spectral_bins, int):
@@ -114,3 +127,25 @@ class RenderSettings:
 
     def replace(self, **changes) -> RenderSettings:
         return replace(self, **changes)
+
+    @property
+    def shutter_s(self) -> tuple[float, float] | None:
+        """The shutter interval in seconds from the frame's instant, or None (no blur)."""
+        if self.shutter is None:
+            return None
+        return (self.shutter[0] / self.fps, self.shutter[1] / self.fps)
+
+
+def _check_shutter(shutter) -> None:
+    """None, or (open, close) in frames with −1 ≤ open ≤ close ≤ 1."""
+    if shutter is None:
+        return
+    try:
+        low, high = (float(v) for v in shutter)
+    except (TypeError, ValueError):
+        raise ValueError(f"shutter must be (open, close) in frames; got {shutter!r}") from None
+    if not (np.isfinite(low) and np.isfinite(high) and -1.0 <= low <= high <= 1.0):
+        raise ValueError(
+            "shutter must be (open, close) in frames with -1 <= open <= close <= 1; "
+            f"got {shutter!r}"
+        )

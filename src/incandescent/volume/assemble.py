@@ -51,15 +51,23 @@ def _grid_name(role: str, names: dict[str, str], available: tuple[str, ...], req
 
 
 def volume_from_section(
-    spec: VolumeSection, remap: Remap, limits: Limits | None = None, layout: str = "auto"
+    spec: VolumeSection,
+    remap: Remap,
+    limits: Limits | None = None,
+    layout: str = "auto",
+    blur_fps: float | None = None,
 ) -> Volume | SparseVolume:
     """The Volume a scene's ``[volume]`` section describes: file, grid roles, preset, remap.
     NumPy grids are checked against ``limits`` from their headers before they are read. An
     OpenVDB file is read as sparse leaves (a :class:`SparseVolume`, never densified) when
-    ``layout`` is "sparse", or "auto" and the file is sparse or too big to densify."""
+    ``layout`` is "sparse", or "auto" and the file is sparse or too big to densify.
+    ``blur_fps``: the render blurs motion at this frame rate, so the velocity grid is read too
+    (``spec.velocity_units`` "voxels/frame" are converted to m/s with it)."""
     limits = limits or Limits()
     source = open_grids(spec.path, spec.axes, limits)
     roles = _roles(spec, source)
+    if blur_fps is not None:
+        roles["velocity"] = _velocity_grid(spec, source)
     if _reads_leaves(spec, source, roles, layout, limits):
         return _sparse_volume(spec, source, roles, remap)
     species_grids = {k: v for k, v in spec.species.items() if isinstance(v, str)}
@@ -75,9 +83,37 @@ def volume_from_section(
     if _up_axis(spec) == "z":
         by_role, file_origin = _z_up_to_y_up(by_role, file_origin, voxel)
         grids = {name: _rotated(g) for name, g in grids.items()}
-    return _assembled(
-        spec, source, roles, grids, by_role, remap, voxel, spec.origin_m or file_origin
-    )
+    if by_role.get("velocity") is not None:
+        by_role["velocity"] = _velocity_m_s(spec, by_role["velocity"], voxel, blur_fps)
+    origin = spec.origin_m or file_origin
+    return _assembled(spec, source, roles, grids, by_role, remap, voxel, origin)
+
+
+def _velocity_grid(spec: VolumeSection, source) -> str:
+    """The velocity grid's name (given, or found by its aliases): blurring needs one."""
+    if spec.grids.velocity is not None and spec.grids.velocity not in source.names:
+        raise ValueError(
+            f"{source.path}: no grid named {spec.grids.velocity!r} (the velocity grid); the file "
+            f"has: {', '.join(source.names)}"
+        )
+    name = spec.grids.velocity or resolve_grid_name("velocity", source.names, required=False)
+    if name is None:
+        raise ValueError(
+            f"{source.path}: motion blur (a shutter) needs a velocity grid; none is named "
+            f"velocity/vel/v among {list(source.names)} (name it with volume.grids.velocity)"
+        )
+    return name
+
+
+def _velocity_m_s(spec: VolumeSection, velocity, voxel_m: float | None, fps: float | None):
+    """The velocity grid in m/s: as given, or voxels/frame × voxel side × frames per second."""
+    values = np.asarray(velocity)
+    if values.ndim != 4 or values.shape[-1] != 3:
+        raise ValueError(f"{spec.path}: the velocity grid must hold 3-vectors; got {values.shape}")
+    if spec.velocity_units == "m/s":
+        return values
+    side = voxel_m if voxel_m is not None else 1.0 / max(values.shape[:3])
+    return values * np.float32(side * float(fps or 0.0))
 
 
 def _roles(spec: VolumeSection, source) -> dict[str, str | None]:
@@ -125,12 +161,14 @@ def _assembled(spec, source, roles, grids, by_role, remap, voxel, origin, box_si
         absorption_source=None if spec.absorption is not None else absorption_note,
         temperature_source=temperature_note,
         box_side_m=box_side_m,
+        velocity_m_s=by_role.get("velocity"),
     )
 
 
 def _reads_leaves(spec, source, roles, layout: str, limits: Limits) -> bool:
     """Read sparse leaves? Only T and κ (and a preset's inputs) travel as leaves."""
-    extra = roles.get("emission_scale") or roles.get("sodium_fraction") or spec.species
+    extra = any(roles.get(r) for r in ("emission_scale", "sodium_fraction", "velocity"))
+    extra = extra or bool(spec.species)
     if layout == "dense" or source.read_leaves is None or extra:
         return False
     if layout == "sparse":
@@ -194,7 +232,12 @@ def _check_vacuum_background(spec, source, roles, leaves, remap, voxel, side) ->
 
 
 def _rotated(g):
-    return np.flip(np.swapaxes(np.asarray(g), 1, 2), axis=2)
+    """A z-up grid turned y-up (see :func:`_z_up_to_y_up`); a vector grid's components too:
+    (v_x, v_y, v_z) ↦ (v_x, v_z, −v_y)."""
+    out = np.flip(np.swapaxes(np.asarray(g), 1, 2), axis=2)
+    if out.ndim == 4 and out.shape[-1] == 3:
+        out = np.stack([out[..., 0], out[..., 2], -out[..., 1]], axis=-1)
+    return out
 
 
 def _z_up_to_y_up(grids: dict, origin, voxel_size_m):

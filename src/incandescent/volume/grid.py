@@ -93,6 +93,8 @@ class Volume(Placed):
     absorption_per_m: (nx, ny, nz) float32 κ in 1/m (already 0 where T < cutoff).
     emission_scale: (nx, ny, nz) float32 or None — a non-physical multiplier of emission only.
     sodium_fraction: (nx, ny, nz) float32 in [0, 1] or None — the paper's per-voxel sodium term.
+    velocity_m_s: (nx, ny, nz, 3) float32 gas velocity in m/s (x, y, z) or None — what motion
+        blur advects κ and T along (``RenderSettings.shutter``).
     species: name → (nx, ny, nz) float32 fraction in [0, 1] of an emitting species (Na, Li, …)
         whose lines (``incandescent.spectra.lines``) add to the emission in physical mode.
     origin_m: world position of the corner of voxel (0, 0, 0), m.
@@ -109,6 +111,7 @@ class Volume(Placed):
     sodium_fraction: NDArray[np.float32] | None = None
     species: dict[str, NDArray[np.float32]] = field(default_factory=dict)
     temperature_source: str = "given in K"
+    velocity_m_s: NDArray[np.float32] | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -151,6 +154,19 @@ class Volume(Placed):
         """A copy with ``changes`` applied (e.g. placement)."""
         return replace(self, _cache={}, **changes)
 
+    @property
+    def max_speed_m_s(self) -> float:
+        """Largest |v| component of any voxel, m/s (0 without a velocity grid; computed once):
+        what bounds a sample's displacement under motion blur along each axis."""
+        if "max_speed" not in self._cache:
+            v = self.velocity_m_s
+            self._cache["max_speed"] = 0.0 if v is None else float(np.abs(v).max())
+        return self._cache["max_speed"]
+
+    def with_velocity(self, velocity_m_s: ArrayLike | None) -> Volume:
+        """A copy with a velocity grid ((nx, ny, nz, 3) m/s, or None) for motion blur."""
+        return self.replace(velocity_m_s=_velocity(velocity_m_s, self.shape, "volume"))
+
     def with_sodium(self, sodium_fraction: ArrayLike | float) -> Volume:
         """A copy with a sodium fraction (0..1, constant or grid) for the paper's sodium term."""
         sodium = _fraction_grid(sodium_fraction, self.shape, "sodium_fraction", "volume")
@@ -188,6 +204,7 @@ class Volume(Placed):
         absorption_source: str | None = None,
         temperature_source: str | None = None,
         box_side_m: float | None = None,
+        velocity_m_s: ArrayLike | None = None,
     ) -> Volume:
         """Validate and place grids; ``source`` names the data's origin in error messages;
         ``absorption_source`` says where an absorption grid came from (metadata, ``--stats``);
@@ -217,7 +234,10 @@ class Volume(Placed):
         if remap != Remap():
             rule += f"; T = (raw − {remap.offset:g})·{remap.scale:g} K"
             rule += f", vacuum below {remap.cutoff_K:g} K" if remap.cutoff_K else ""
-        volume = cls(_f32(temp), _f32(kappa), scale, origin, voxel, how, sodium, fractions, rule)
+        velocity = _velocity(velocity_m_s, temp.shape, source)
+        volume = cls(
+            _f32(temp), _f32(kappa), scale, origin, voxel, how, sodium, fractions, rule, velocity
+        )
         if absorption is None or np.ndim(absorption) == 0:  # κ ∈ {0, κ₀} by construction
             peak = float(volume.absorption_per_m.max())  # no scan for other values needed
             volume._cache["two_valued_kappa"] = peak if peak > 0 else None
@@ -336,6 +356,21 @@ def _checked_grid(value, shape, name: str, source: str) -> NDArray[np.float32]:
         index = tuple(int(i) for i in np.argwhere(grid < 0)[0])
         raise ValueError(f"{source}: {name} must be >= 0; got {grid[index]:g} at voxel {index}")
     return np.array(grid, dtype=np.float32)
+
+
+def _velocity(value, shape, source: str) -> NDArray[np.float32] | None:
+    """A finite (nx, ny, nz, 3) velocity grid in m/s as float32, or None."""
+    if value is None:
+        return None
+    arr = np.asarray(value)
+    if arr.dtype != np.float32:
+        arr = _validate.real_array(arr, f"{source}: velocity")
+    if arr.shape != tuple(shape) + (3,):
+        raise ValueError(
+            f"{source}: velocity grid has shape {arr.shape}; expected {tuple(shape) + (3,)} "
+            "(a 3-vector in m/s per voxel)"
+        )
+    return _f32(np.array(_validate.finite(arr, f"{source}: velocity (m/s)"), dtype=np.float32))
 
 
 def _fraction_grid(value, shape, name: str, source: str):

@@ -89,3 +89,16 @@ def empty_radius(occupied: NDArray[np.bool_]) -> NDArray[np.float32]:
         reached, r = dilate_cells(reached), r + 1
     radius[reached & (radius == limit)] = r
     return radius
+
+
+def dilated(cells: MacrocellGrid, rings: int) -> MacrocellGrid:
+    """``cells`` with every non-empty cell grown by ``rings`` cells (Chebyshev): under motion
+    blur a sample reads the medium up to ``rings`` cells from its own, so a cell is empty only if
+    every cell that near is (the maxima are not kept: the kernel reads only the radius)."""
+    if rings <= 0:
+        return cells
+    occupied = cells.max_absorption > 0
+    for _ in range(min(rings, max(occupied.shape))):
+        occupied = dilate_cells(occupied)
+    marked = occupied.astype(np.float32)
+    return MacrocellGrid(marked, cells.cell_voxels, empty_radius(occupied))

@@ -65,6 +65,7 @@ ROLE_ALIASES: dict[str, tuple[str, ...]] = {
     "absorption": ("absorption",),
     "emission_scale": ("emission_scale",),
     "sodium_fraction": ("sodium_fraction",),
+    "velocity": ("velocity", "vel", "v"),
 }
 ROLES: tuple[str, ...] = tuple(ROLE_ALIASES)
 

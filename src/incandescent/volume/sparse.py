@@ -60,6 +60,8 @@ class SparseVolume(Placed):
     # blackbody emission from κ and T; species, sodium and emission-scale grids stay dense).
     emission_scale = None
     sodium_fraction = None
+    velocity_m_s = None
+    max_speed_m_s = 0.0
     species: ClassVar[Mapping[str, NDArray[np.float32]]] = MappingProxyType({})
 
     @classmethod

@@ -71,6 +71,12 @@ class _Kernel:
         self.bands = inputs.bands
         self.kappa_scale = [np.float32(k) for k in self.bands.kappa_scale]
         self.terms = [(model, model.bind(self)) for model in inputs.models]
+        #: motion blur: the velocity grid's x, y, z components (m/s), and each ray's time in s
+        #: divided by the voxel side (set by ``trace``); None without blur
+        self.velocity = self.time_voxels = None
+        if inputs.ray_spec is not None and _blurs(inputs.ray_spec, vol):
+            v = vol.velocity_m_s
+            self.velocity = [self.grid(("velocity", a), v[..., a]) for a in range(3)]  # type: ignore[index]
         self.display = next(((mo, b) for mo, b in self.terms if mo.kind == "display"), None)
         self.sources = [(mo, b, i) for i, (mo, b) in enumerate(self.terms) if mo.kind == "source"]
         self.coefficients = [
@@ -236,6 +242,9 @@ class _Kernel:
         """One segment: sample (κ, T) at its midpoint and integrate where the medium emits."""
         dr = self.dr
         c = self.corners(p)
+        if self.velocity is not None:  # backward advection: the gas at p now was at p − v·t
+            v = self.m.Array3f(*(self.trilinear(grid, c) for grid in self.velocity))
+            c = self.corners(dr.fma(v, -self.time_voxels, p))
         kappa, temp = self.medium_at(c)
         sampled = [model.sample(self, bound, c) for model, bound in self.terms]
         if self.display is not None:
@@ -386,6 +395,66 @@ def _device_grids(m, volume):
     return per_volume[m.__name__]
 
 
+def _blurs(spec, volume) -> bool:
+    """Does this render blur motion (a shutter is set and the volume has a velocity grid)?"""
+    return spec.shutter_s is not None and getattr(volume, "velocity_m_s", None) is not None
+
+
+#: Salts XORed into the seed's key for the hashes of the shutter time (independent of the jitter).
+_TIME_SALT, _STRATUM_SALT = 0x68E31DA4, 0xB5297A4D
+
+
+def _shutter_time(m, spec, x, y, index):
+    """Each ray's time in s within the shutter: the N×N rays of a pixel take the N² strata of the
+    interval in a pseudo-random order of their own (:func:`_permute`: a time never follows the
+    ray's place in the pixel, which would bias a moving edge), each at a hashed point in its
+    stratum."""
+    dr = drjit_module()
+    s = spec.supersample
+    strata = s * s
+    sub = (x % s) * s + (y % s)
+    pixel = (x // s) * spec.height + (y // s)
+    seed = _lowbias32(pixel ^ dr.opaque(m.UInt, spec.key ^ _STRATUM_SALT))
+    stratum = _permute(m, sub, strata, seed)
+    xi = m.Float(_lowbias32(index ^ dr.opaque(m.UInt, spec.key ^ _TIME_SALT)) >> 8) * 2.0**-24
+    u = (m.Float(stratum) + xi) * (1.0 / strata)
+    low, high = (dr.opaque(m.Float, float(t)) for t in spec.shutter_s)
+    return dr.fma(high - low, u, low)
+
+
+def _permute(m, i, count: int, seed):
+    """Element i of a pseudo-random permutation of 0 … count − 1 chosen by ``seed`` (per lane):
+    Kensler's hash with cycle walking ("Correlated Multi-Jittered Sampling", Pixar 2013, §3)."""
+    dr = drjit_module()
+    if count == 1:
+        return m.UInt(0)
+    w = (1 << (count - 1).bit_length()) - 1  # the smallest all-ones mask covering count − 1
+
+    def scramble(i):
+        i = i ^ seed
+        i = i * 0xE170893D
+        i = i ^ (seed >> 16)
+        i = i ^ ((i & w) >> 4)
+        i = i ^ (seed >> 8)
+        i = i * 0x0929EB3F
+        i = i ^ (seed >> 23)
+        i = i ^ ((i & w) >> 1)
+        i = i * (1 | (seed >> 27))
+        i = i * 0x6935FA69
+        i = i ^ ((i & w) >> 11)
+        i = i * 0x74DCB303
+        i = i ^ ((i & w) >> 2)
+        i = i * 0x9E501CC3
+        i = i ^ ((i & w) >> 2)
+        i = i * 0xC860A3DF
+        i = i & w
+        return (i ^ (i >> 5),)
+
+    (i,) = scramble(i)  # do … while (i >= count): walk the cycle back into range
+    (i,) = dr.while_loop((i,), lambda i: i >= count, scramble, labels=("i",))
+    return (i + seed) % count
+
+
 def _lowbias32(x):
     """The integer hash of ``rays.lowbias32`` on UInt32 lanes (multiplication wraps mod 2³²)."""
     x = x ^ (x >> 16)
@@ -446,7 +515,13 @@ def trace(inputs: MarchInputs, m, order, K: _Kernel | None = None):
     samples, depth). ``K``: the kernel's bound tables and grids (built once per render)."""
     dr = drjit_module()
     K = K or _Kernel(m, inputs)
-    o, d, t0, t1, j = _ray_arrays(m, inputs.ray_spec, order)
+    spec = inputs.ray_spec
+    assert spec is not None, "the Dr.Jit kernels generate their rays from a RaySpec"
+    o, d, t0, t1, j = _ray_arrays(m, spec, order)
+    if K.velocity is not None:
+        x, y, index = (m.UInt(a) for a in order)
+        voxel = dr.opaque(m.Float, float(spec.voxel_size_m))
+        K.time_voxels = _shutter_time(m, spec, x, y, index) / voxel
     dt, skipping = K.dt, K.cells is not None
 
     def segment(k):
