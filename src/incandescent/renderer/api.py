@@ -146,7 +146,7 @@ def _check_blur(volume, settings: RenderSettings, backend: str) -> None:
 
 def _blur_rings(volume, settings: RenderSettings) -> int:
     """Macrocells a blurred sample may read away from its own: the largest displacement
-    max|v_i|·max|t| along any axis, in cells (DESIGN §6: skipping stays exact)."""
+    max|v_i|·max|t| along any axis, in cells (DESIGN §4: skipping stays exact)."""
     shutter = settings.shutter_s
     if shutter is None or volume.velocity_m_s is None:
         return 0
