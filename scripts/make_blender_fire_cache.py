@@ -37,7 +37,14 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--compression", default="BLOSC", choices=["BLOSC", "ZIP", "NONE"])
     parser.add_argument("--precision", default="16", choices=["16", "32"])
     parser.add_argument(
-        "--flow-type", default="FIRE", choices=["FIRE", "BOTH"], help="BOTH: fire + smoke"
+        "--flow-type", default="FIRE", choices=["FIRE", "BOTH", "SMOKE"], help="BOTH: fire + smoke"
+    )
+    parser.add_argument(
+        "--initial-velocity",
+        type=float,
+        default=None,
+        help="the emitter pushes its gas up (+z) at this many m/s, and the domain has no buoyancy "
+        "and no vorticity (a velocity-units probe)",
     )
     return parser.parse_args(argv)
 
@@ -72,6 +79,18 @@ def add_fire_flow(flow_type: str = "FIRE") -> bpy.types.Object:
     settings.temperature = 1.5
     settings.surface_distance = 1.0
     return flow
+
+
+def probe_velocity(flow: bpy.types.Object, domain: bpy.types.Object, speed_m_s: float) -> None:
+    """The emitter's gas starts at ``speed_m_s`` straight up; nothing else moves it."""
+    settings = flow.modifiers["Fluid"].flow_settings
+    settings.use_initial_velocity = True
+    settings.velocity_coord = (0.0, 0.0, speed_m_s)
+    settings.temperature = 0.0
+    domain_settings = domain.modifiers["Fluid"].domain_settings
+    domain_settings.alpha = 0.0  # density buoyancy
+    domain_settings.beta = 0.0  # heat buoyancy
+    domain_settings.vorticity = 0.0
 
 
 def configure_domain(domain: bpy.types.Object, args: argparse.Namespace) -> None:
@@ -109,8 +128,10 @@ def main() -> None:
     args.outdir.mkdir(parents=True, exist_ok=True)
     clear_scene()
     domain = add_domain()
-    add_fire_flow(args.flow_type)  # before the domain's cache settings
+    flow = add_fire_flow(args.flow_type)  # before the domain's cache settings
     configure_domain(domain, args)
+    if args.initial_velocity is not None:
+        probe_velocity(flow, domain, args.initial_velocity)
     bake(domain, args.frames)
     written = sorted(args.outdir.rglob("*.vdb"))
     print(f"baked {len(written)} .vdb files under {args.outdir}")

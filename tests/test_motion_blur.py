@@ -109,7 +109,7 @@ def test_a_velocity_grid_must_be_a_vector_per_voxel():
 
 def test_the_command_line_blurs_along_a_velocity_grid_in_either_unit(tmp_path):
     """``render --shutter`` reads the file's velocity grid; 1 voxel/frame at 24 fps is
-    voxel·24 m/s: both spellings give one image."""
+    voxel·24 m/s, or a velocity scale of voxel·24: the three spellings give one image."""
     from typer.testing import CliRunner
 
     from incandescent.cli import app
@@ -135,6 +135,8 @@ def test_the_command_line_blurs_along_a_velocity_grid_in_either_unit(tmp_path):
             "voxels/frame",
         ],  # fmt: skip
         "metres": ["render", tmp_path / "metres.npz", *common, "--shutter", "-0.5:0.5"],
+        "scaled": ["render", tmp_path / "frames.npz", *common, "--shutter", "-0.5:0.5",
+                   "--velocity-scale", repr(voxel * 24.0)],  # fmt: skip
     }
     images = {}
     for name, args in runs.items():
@@ -143,7 +145,30 @@ def test_the_command_line_blurs_along_a_velocity_grid_in_either_unit(tmp_path):
         assert result.exit_code == 0, result.output
         images[name] = read_exr(out)[0]
     np.testing.assert_allclose(images["frames"], images["metres"], rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(images["scaled"], images["metres"], rtol=1e-5, atol=1e-6)
     assert np.abs(images["frames"] - images["still"]).max() > 0.1 * images["still"].max()
     bad = CliRunner().invoke(app, [str(a) for a in runs["still"]] + ["--shutter", "0.5", "-o",
                                    str(tmp_path / "x.exr")])  # fmt: skip
     assert bad.exit_code == 2 and "--shutter must be OPEN:CLOSE" in bad.output
+
+
+def test_animate_blurs_each_frame_at_the_video_frame_rate(tmp_path):
+    from PIL import Image
+    from typer.testing import CliRunner
+
+    from incandescent.cli import app
+
+    volume = _blob()
+    for i in (1, 2):
+        np.savez(tmp_path / f"f_{i:04d}.npz", temperature=volume.temperature_K,
+                 velocity=volume.velocity_m_s)  # fmt: skip
+    frames = {}
+    for name, extra in (("sharp", []), ("blur", ["--shutter", "-0.5:0.5", "--fps", "12"])):
+        out = tmp_path / name
+        args = ["animate", str(tmp_path / "f_####.npz"), "-o", str(out), "--width", "24",
+                "--height", "24", *extra]  # fmt: skip
+        result = CliRunner().invoke(app, args)
+        assert result.exit_code == 0, result.output
+        with Image.open(sorted(out.glob("*.png"))[0]) as image:
+            frames[name] = np.asarray(image, dtype=np.float64)
+    assert np.abs(frames["blur"] - frames["sharp"]).max() > 20  # of 255: visibly streaked

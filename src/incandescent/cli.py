@@ -148,6 +148,7 @@ OPT_SHUTTER = typer.Option(
 )
 OPT_VELOCITY_GRID = typer.Option(None, help="Velocity grid for motion blur [velocity, vel, v].")
 OPT_VELOCITY_UNITS = typer.Option(None, help="Velocity grid units: m/s | voxels/frame [m/s].")
+OPT_VELOCITY_SCALE = typer.Option(None, help="Factor on the velocity grid (Blender's) [1].")
 OPT_MAX_MEMORY = typer.Option(None, help=MAX_MEMORY_HELP)
 OPT_MAX_SAMPLES = typer.Option(None, help=MAX_SAMPLES_HELP)
 
@@ -231,6 +232,7 @@ def render(
     fps: float = typer.Option(None, help="Frames per second, for the shutter [24]."),
     velocity_grid: str = OPT_VELOCITY_GRID,
     velocity_units: str = OPT_VELOCITY_UNITS,
+    velocity_scale: float = OPT_VELOCITY_SCALE,
     max_memory: float = OPT_MAX_MEMORY,
     max_samples: float = OPT_MAX_SAMPLES,
 ) -> None:
@@ -326,6 +328,7 @@ def _overrides(f: dict) -> dict:
             "axes": f.get("axes"),
             "grids": {"temperature": f.get("temperature_grid"), "velocity": f.get("velocity_grid")},
             "velocity_units": f.get("velocity_units"),
+            "velocity_scale": f.get("velocity_scale"),
             "temperature": {
                 "offset": f.get("offset"),
                 "scale": f.get("scale"),
@@ -628,6 +631,7 @@ def animate(
     shutter: str = OPT_SHUTTER,
     velocity_grid: str = OPT_VELOCITY_GRID,
     velocity_units: str = OPT_VELOCITY_UNITS,
+    velocity_scale: float = OPT_VELOCITY_SCALE,
     max_memory: float = OPT_MAX_MEMORY,
     max_samples: float = OPT_MAX_SAMPLES,
 ) -> None:

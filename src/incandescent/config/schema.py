@@ -143,8 +143,11 @@ class VolumeSection(_Section):
     species: dict[str, str | float] = Field(default_factory=dict)
     #: Order of the stored array axes (e.g. "zyx") where the file does not say it.
     axes: Literal["xyz", "xzy", "yxz", "yzx", "zxy", "zyx"] | None = None
-    #: Units of the velocity grid (motion blur): metres per second, or voxels per frame.
+    #: Units of the velocity grid (motion blur): metres per second, or voxels per frame; and a
+    #: factor on it (Blender's Volume "Velocity Scale": Mantaflow stores cells per its own time
+    #: unit, proportional to the domain's resolution, so a bake needs its factor).
     velocity_units: Literal["m/s", "voxels/frame"] = "m/s"
+    velocity_scale: float = Field(default=1.0, ge=0.0, allow_inf_nan=False)
 
     @model_validator(mode="after")
     def _check(self) -> VolumeSection:

@@ -106,14 +106,16 @@ def _velocity_grid(spec: VolumeSection, source) -> str:
 
 
 def _velocity_m_s(spec: VolumeSection, velocity, voxel_m: float | None, fps: float | None):
-    """The velocity grid in m/s: as given, or voxels/frame × voxel side × frames per second."""
+    """The velocity grid in m/s: as given, or voxels/frame × voxel side × frames per second;
+    times ``velocity_scale``."""
     values = np.asarray(velocity)
     if values.ndim != 4 or values.shape[-1] != 3:
         raise ValueError(f"{spec.path}: the velocity grid must hold 3-vectors; got {values.shape}")
-    if spec.velocity_units == "m/s":
-        return values
-    side = voxel_m if voxel_m is not None else 1.0 / max(values.shape[:3])
-    return values * np.float32(side * float(fps or 0.0))
+    factor = float(spec.velocity_scale)
+    if spec.velocity_units == "voxels/frame":
+        side = voxel_m if voxel_m is not None else 1.0 / max(values.shape[:3])
+        factor *= side * float(fps or 0.0)
+    return values if factor == 1.0 else values * np.float32(factor)
 
 
 def _roles(spec: VolumeSection, source) -> dict[str, str | None]:
