@@ -135,8 +135,15 @@ def test_the_command_line_blurs_along_a_velocity_grid_in_either_unit(tmp_path):
             "voxels/frame",
         ],  # fmt: skip
         "metres": ["render", tmp_path / "metres.npz", *common, "--shutter", "-0.5:0.5"],
-        "scaled": ["render", tmp_path / "frames.npz", *common, "--shutter", "-0.5:0.5",
-                   "--velocity-scale", repr(voxel * 24.0)],  # fmt: skip
+        "scaled": [
+            "render",
+            tmp_path / "frames.npz",
+            *common,
+            "--shutter",
+            "-0.5:0.5",
+            "--velocity-scale",
+            repr(voxel * 24.0),
+        ],  # fmt: skip
     }
     images = {}
     for name, args in runs.items():

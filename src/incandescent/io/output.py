@@ -88,10 +88,12 @@ def volume_grids(volume) -> dict[str, np.ndarray]:
     if volume.sodium_fraction is not None:
         grids["sodium_fraction"] = volume.sodium_fraction
     grids.update(volume.species)
+    if volume.velocity_m_s is not None:
+        grids["velocity"] = volume.velocity_m_s
     return grids
 
 
-_UNITS = {"temperature": "kelvin", "absorption": "1/m"}
+_UNITS = {"temperature": "kelvin", "absorption": "1/m", "velocity": "m/s"}
 
 
 def save_volume(volume, path: str | Path, overwrite: bool = False) -> Path:
