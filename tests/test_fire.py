@@ -196,3 +196,32 @@ def test_settings_reject_unknown_keys_and_impossible_values():
         preset("bonfire")
     with pytest.raises(ValueError, match="greater than 0"):
         Source(radius_m=0.0)
+
+
+def test_simulate_writes_renderable_frames_and_resumes(tmp_path):
+    """The command line: frames with T, κ, CH, C₂ and velocity; a second run with more frames
+    continues from the checkpoint (the frames already written stay as they are); other settings
+    are refused; --render makes a video of them."""
+    from typer.testing import CliRunner
+
+    from incandescent import api
+    from incandescent.cli import app
+
+    out = tmp_path / "fire"
+    args = ["simulate", "torch", "-o", str(out), "--resolution", "16", "--backend", "cpu"]
+    first = CliRunner().invoke(app, [*args, "--frames", "2"])
+    assert first.exit_code == 0, first.output
+    frame_2 = (out / "fire_0002.npz").stat().st_mtime_ns
+    with np.load(out / "fire_0002.npz") as data:
+        assert {"temperature", "absorption", "CH", "C2", "velocity"} <= set(data.files)
+        assert data["temperature"].max() > 1000.0 and data["velocity"].shape[-1] == 3
+    more = CliRunner().invoke(app, [*args, "--frames", "3", "--render", str(tmp_path / "f.gif"),
+                                    "--width", "24", "--height", "32"])  # fmt: skip
+    assert more.exit_code == 0, more.output
+    assert "frame 3:" in more.output and "frame 1:" not in more.output
+    assert (out / "fire_0002.npz").stat().st_mtime_ns == frame_2
+    assert (tmp_path / "f.gif").stat().st_size > 0
+    other = CliRunner().invoke(app, [*args, "--frames", "3", "--seed", "9"])
+    assert other.exit_code == 2 and "another simulation" in other.output
+    volume = api.load_volume(out / "fire_0003.npz")
+    assert volume.voxel_size_m == pytest.approx(0.6 / 16)  # placed by the frame's own keys

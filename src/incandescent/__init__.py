@@ -17,4 +17,15 @@ __all__ = [
     "default_camera",
     "planck_radiance",
     "render",
+    "simulate",
 ]
+
+
+def __getattr__(name: str):
+    """``incandescent.simulate`` (the fire solver) is imported when first used, so that rendering
+    does not pay for it."""
+    if name == "simulate":
+        from incandescent.simulation import simulate
+
+        return simulate
+    raise AttributeError(f"module 'incandescent' has no attribute {name!r}")

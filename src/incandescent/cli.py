@@ -702,6 +702,98 @@ def animate(
 
 
 @app.command()
+def simulate(
+    preset_name: str = typer.Argument(
+        ..., metavar="PRESET", help="candle | torch | campfire | explosion."
+    ),
+    output: Path = typer.Option(..., "--output", "-o", help="Folder for the frames (fire_####)."),
+    resolution: int = typer.Option(64, help="Cells along the domain's longest side."),
+    frames: int = typer.Option(48, help="Frames to simulate."),
+    settings_file: Path = typer.Option(
+        None, "--settings", help="A .toml/.json of FireSettings fields over the preset's."
+    ),
+    seed: int = typer.Option(None, help="Seed of the sources' turbulence [preset's: 0]."),
+    frame_format: str = typer.Option("npz", "--format", help="Frame files: npz | vdb."),
+    backend: str = typer.Option("auto", help="auto | cpu | cuda | reference."),
+    render_to: Path = typer.Option(
+        None, "--render", help="Also render the frames to this .mp4/.gif/folder."
+    ),
+    width: int = typer.Option(320, help="Rendered frame width."),
+    height: int = typer.Option(480, help="Rendered frame height."),
+    overwrite: bool = typer.Option(False, help="Start again even if OUTPUT holds another run."),
+) -> None:
+    """Simulate a fire (Nguyen, Fedkiw & Jensen 2002) into frames the renderer reads.
+
+    Frames hold temperature (K), absorption (soot, 1/m), the blue core's CH and C2 fractions and
+    the velocity (m/s). A checkpoint after each frame lets an interrupted run resume: run the
+    same command again. --render renders the frames afterwards (fixed camera and exposure)."""
+    from incandescent.renderer.backends import resolve_backend
+    from incandescent.simulation import run
+    from incandescent.simulation import settings as fire_settings
+
+    with _guarded():
+        changes = _settings_changes(settings_file)
+        if seed is not None:
+            changes["seed"] = seed
+        settings = fire_settings.preset(preset_name, **changes)
+        suffix = "." + frame_format.lstrip(".")
+        name = resolve_backend(backend)
+        if render_to is not None:
+            from incandescent.animation import plan_output
+
+            plan_output(render_to, None, overwrite)
+        with _simulation_progress(frames) as on_frame:
+            run.simulate(settings, resolution, frames, output, name, suffix, overwrite, on_frame)
+        if render_to is not None:
+            run.render_frames(output, frames, render_to, width, height, settings.fps,
+                              backend, overwrite, suffix)  # fmt: skip
+            _say(f"  rendered {render_to}")
+
+
+def _settings_changes(path: Path | None) -> dict:
+    """FireSettings fields from a TOML/JSON file (validated with the preset's)."""
+    if path is None:
+        return {}
+    import json
+    import tomllib
+
+    text = path.read_bytes()
+    return tomllib.loads(text.decode()) if path.suffix.lower() == ".toml" else json.loads(text)
+
+
+@contextlib.contextmanager
+def _simulation_progress(frames: int) -> Iterator[Callable]:
+    """A progress bar with steps per second and the time left; yields the per-frame callback."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    bar = Progress(
+        TextColumn("simulating"),
+        BarColumn(),
+        TextColumn("frame {task.completed:.0f}/{task.total:.0f} · {task.fields[rate]}"),
+        TimeRemainingColumn(),
+        console=console,
+        disable=not console.is_terminal,
+    )
+    task = bar.add_task("simulate", total=frames, rate="")
+    done = {"steps": 0, "seconds": 0.0}
+
+    def on_frame(report) -> None:
+        done["steps"] += len(report.steps)
+        done["seconds"] += report.seconds
+        last = report.steps[-1]
+        steps_s = done["steps"] / max(done["seconds"], 1e-9)
+        rate = f"{steps_s:.1f} steps/s, pressure {last.pressure_iterations} iterations"
+        bar.update(task, completed=report.frame, rate=rate)
+        if not console.is_terminal:
+            _say(f"  frame {report.frame}: {len(report.steps)} steps in {report.seconds:.2f} s, "
+                 f"pressure {last.pressure_iterations} iterations to "
+                 f"{last.pressure_residual:.1e} -> {report.path}")  # fmt: skip
+
+    with bar:
+        yield on_frame
+
+
+@app.command()
 def bench(
     as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
     scenes: str = typer.Option(

@@ -164,3 +164,57 @@ def _write_frame(solver: FireSolver, state: FireState, path: Path) -> Path:
     from incandescent.io.output import save_volume
 
     return save_volume(frame_volume(solver, state), path, overwrite=True)
+
+
+def render_frames(
+    out_dir: str | Path,
+    frames: int,
+    video: str | Path,
+    width: int = 320,
+    height: int = 480,
+    fps: float = 24.0,
+    backend: str = "auto",
+    overwrite: bool = False,
+    suffix: str = ".npz",
+    progress: bool = True,
+):
+    """Render simulated frames 1 … ``frames`` to ``video`` (.mp4, .gif or a folder) with
+    ``animate``'s machinery (one camera on the whole domain, one exposure from the middle frame,
+    frames keyed and resumable): blackbody from T and soot κ, the blue core by its CH and C₂
+    lines."""
+    from incandescent import api
+    from incandescent.animation import fixed_display, render_video
+    from incandescent.config import VolumeSection
+
+    out_dir = Path(out_dir)
+    paths = [frame_path(out_dir, i, suffix) for i in range(1, frames + 1)]
+    specs = [
+        VolumeSection(path=p, species={"CH": "CH", "C2": "C2"}, absorption=None) for p in paths
+    ]
+
+    def volume_at(index: int):
+        return api.volume_from_section(specs[index], api.Remap(), layout="dense")
+
+    first = volume_at(0)
+    camera = api.camera_from(first, fov_deg=35.0, frame_content=False)
+    settings = api.RenderSettings(width=width, height=height)
+    display = fixed_display(volume_at(len(paths) // 2), camera, settings, backend)
+
+    def describe(index: int) -> str:
+        from incandescent.animation import file_identity
+
+        return f"{file_identity(paths[index])} fire frame"
+
+    return render_video(
+        volume_at,
+        len(paths),
+        video,
+        camera,
+        settings,
+        display,
+        backend=backend,
+        overwrite=overwrite,
+        progress=progress,
+        fps=fps,
+        frame_input=describe,
+    )
