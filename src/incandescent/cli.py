@@ -432,7 +432,7 @@ def _check_demo_size(size: int | None, limits) -> None:
 
 @app.command()
 def demo(
-    name: str = typer.Argument("plume", help=f"Scene: {', '.join(DEMOS)}."),
+    name: str = typer.Argument("fire", help=f"Scene: {', '.join(DEMOS)}."),
     output: Path = typer.Option(
         None,
         "--output",

@@ -20,6 +20,7 @@ from incandescent.scenes.synthetic import (
     explosion_shell,
     plume,
     plume_temperature,
+    simulated_campfire,
     soot_plume,
     sparse_flame,
 )
@@ -76,6 +77,9 @@ SCENES: dict[str, Scene] = {
     "plume": Scene("plume", "plume {n}³", plume, 128),
     "sparse": Scene("sparse", "small flame in an empty {n}³ box", sparse_flame, 128),
     "soot": Scene("soot", "plume {n}³ with a graded κ grid", soot_plume, 128),
+    "fire": Scene(
+        "fire", "a simulated campfire (Nguyen et al. 2002), 48 cells", simulated_campfire, 48
+    ),
     "shell": Scene("shell", "fireball shell in an empty {n}³ box (sparse)", explosion_shell, 256),
     "sphere": Scene("sphere", "the 2011 paper's soot sphere {n}³", _sphere, 64),
     **{

@@ -98,3 +98,23 @@ def _shell_temperature(x, y, z, centre, radius, half, peak_K, n) -> NDArray[np.f
     bump = np.clip(1.0 - (d / (half * ripple)) ** 2, 0.0, None)
     temp = peak_K * bump * (0.75 + 0.25 * ripple)
     return np.where(temp > 400.0, temp, 0.0).astype(np.float32)  # below 400 K: vacuum
+
+
+def simulated_campfire(n: int = 48) -> Volume:
+    """Frame 30 (1.25 s) of the ``campfire`` preset simulated at 48 cells
+    (``scripts/make_demo_fire.py``), shipped with the package: temperature, soot κ and the blue
+    core's CH and C₂ fractions. ``n`` is ignored (the frame has its own grid)."""
+    from importlib.resources import files
+
+    with files("incandescent.scenes").joinpath("data/campfire.npz").open("rb") as handle:
+        with np.load(handle) as data:
+            return Volume.from_arrays(
+                data["temperature"],
+                absorption=data["absorption"],
+                voxel_size_m=float(data["voxel_size_m"]),
+                origin_m=data["origin_m"],
+                species={"CH": data["CH"], "C2": data["C2"]},
+                source="simulated campfire",
+                absorption_source="soot",
+                temperature_source="simulated (K)",
+            )
