@@ -77,6 +77,7 @@ def render_video(
     fps: float = 25.0,
     frame_input: Callable[[int], str] | None = None,
     limits: Limits | None = None,
+    distribute: Distribute | None = None,
 ) -> AnimationSummary:
     """Render frames 0 … n_frames − 1 of ``volume_at`` to ``output`` (.mp4, .gif or a folder),
     seen by ``camera`` — one camera, or a path ``frame ↦ Camera`` (``incandescent.camera.paths``).
@@ -86,7 +87,9 @@ def render_video(
     display settings and the frame's camera, into the key each frame is recorded under
     (:func:`frame_key`): a frame on disk is reused only when its key matches, and ``overwrite``
     renders every frame again. The backend is not part of the key (backends agree to 1e-4).
-    ``limits`` bound each frame's render (:mod:`incandescent.budget`).
+    ``limits`` bound each frame's render (:mod:`incandescent.budget`). ``distribute``: render
+    the missing frames on a cluster instead (``incandescent.cluster``; then ``volume_at`` is not
+    called for them).
     """
     camera_at = camera if callable(camera) else (lambda _: camera)
     describe = frame_input or (lambda _: "")
@@ -110,19 +113,33 @@ def render_video(
         overwrite=overwrite,
         progress=progress,
         frame_key=key,
+        distribute=distribute,
     )
 
 
 def frame_key(
     frame_input: str, camera: Camera, settings: RenderSettings, display: DisplaySettings
 ) -> str:
-    """A digest of everything that makes a frame's pixels: input, camera, settings, version."""
+    """Digests of everything that makes a frame's pixels: ``JOB:INPUT``, the job (version,
+    camera, render and display settings) and the frame's input (its file's identity). A frame
+    whose input alone changed is rendered again; one from another job is refused."""
     import hashlib
 
     from incandescent._version import __version__
 
-    text = "\n".join((__version__, frame_input, repr(camera), repr(settings), repr(display)))
-    return hashlib.sha256(text.encode()).hexdigest()
+    job = "\n".join((__version__, repr(camera), repr(settings), repr(display)))
+
+    def digest(text: str) -> str:
+        return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+    return f"{digest(job)}:{digest(frame_input)}"
+
+
+def _same_job(recorded: str | None, wanted: str) -> bool:
+    """Were both keys made by :func:`frame_key` for the same job (only the input differs)?"""
+    if not recorded or ":" not in recorded or ":" not in wanted:
+        return False
+    return recorded.split(":", 1)[0] == wanted.split(":", 1)[0]
 
 
 def file_identity(path: str | Path) -> str:
@@ -268,7 +285,10 @@ def _reusable(frame_dir: Path, n_frames: int, key_of: Callable[[int], str], rere
         return {}, {}
     manifest = _read_manifest(frame_dir)
     present = _existing_frames(frame_dir, n_frames)
-    stale = [i for i in present if manifest.get(str(i)) != key_of(i)]
+    changed = [i for i in present if manifest.get(str(i)) != key_of(i)]
+    stale = [i for i in changed if not _same_job(manifest.get(str(i)), key_of(i))]
+    for i in changed:  # the same job on a changed input: render it again
+        del present[i]
     if stale:
         raise FileExistsError(
             f"{frame_dir} holds {len(stale)} frame(s) (first: {FRAME_NAME.format(stale[0])}) "
@@ -323,6 +343,24 @@ def _rate(task) -> str:
     return "– frames/s" if task.speed is None else f"{task.speed:.2f} frames/s"
 
 
+class FramesFailed(RuntimeError):
+    """Some frames of a distributed render failed (``failures``: index → reason); the others
+    are done and recorded, so a rerun renders only these."""
+
+    def __init__(self, failures: dict[int, str]) -> None:
+        self.failures = failures
+        first = min(failures)
+        super().__init__(
+            f"{len(failures)} frame(s) failed; first: frame {first} ({failures[first]}); "
+            "the others are done — run again to retry these"
+        )
+
+
+#: ``(frame indices, on_done(index, image shape)) → failures``: renders frames elsewhere (a Dask
+#: cluster, ``incandescent.cluster``), each writing its own PNG to ``frame_path``.
+Distribute = Callable[[list[int], Callable[[int, tuple], None]], dict[int, str]]
+
+
 def _render_missing(
     volumes: VolumeSource,
     n_frames: int,
@@ -331,6 +369,7 @@ def _render_missing(
     progress: bool,
     frame_key: Callable[[int], str] | None = None,
     rerender: bool = False,
+    distribute: Distribute | None = None,
 ) -> tuple[list[Path], int]:
     """Render the frames not yet in ``frame_dir`` (or made from another key); returns all frame
     paths and how many were rendered. The caller holds the folder's lock."""
@@ -340,6 +379,10 @@ def _render_missing(
     sizes = set(done.values())
     shape = None if len(sizes) != 1 else tuple(reversed(sizes.pop())) + (3,)
     bar, task = _progress(progress, len(todo), len(done))
+    if distribute is not None:
+        with bar:
+            _render_elsewhere(distribute, sorted(todo), frame_dir, keys, key_of, shape, bar)
+        return [frame_path(frame_dir, i) for i in range(n_frames)], len(todo)
     with bar:
         for i, volume in _volume_stream(volumes, n_frames, todo):
             image = _check_frame(render_frame(volume), i, shape)
@@ -351,6 +394,25 @@ def _render_missing(
             bar.advance(task)
             bar.update(task, rate=_rate(bar.tasks[0]))
     return [frame_path(frame_dir, i) for i in range(n_frames)], len(todo)
+
+
+def _render_elsewhere(distribute, todo, frame_dir, keys, key_of, shape, bar) -> None:
+    """Frames rendered by ``distribute``; the manifest entry of each is written here, after its
+    PNG exists. Raises :class:`FramesFailed` after the others finished."""
+    sizes = {shape} if shape is not None else set()
+
+    def on_done(index: int, frame_shape: tuple) -> None:
+        sizes.add(tuple(frame_shape))
+        if len(sizes) > 1:
+            raise ValueError(f"frame {index} has shape {frame_shape}; the others {sizes}")
+        keys[str(index)] = key_of(index)
+        _write_manifest(frame_dir, keys)
+        bar.advance(bar.task_ids[0])
+        bar.update(bar.task_ids[0], rate=_rate(bar.tasks[0]))
+
+    failures = distribute(todo, on_done)
+    if failures:
+        raise FramesFailed(failures)
 
 
 def _frame_folder(frame_dir: Path) -> Path:
@@ -509,6 +571,7 @@ def animate(
     overwrite: bool = False,
     progress: bool = True,
     frame_key: Callable[[int], str] | None = None,
+    distribute: Distribute | None = None,
 ) -> AnimationSummary:
     """Render a sequence to PNG frames, then assemble ``output`` from them.
 
@@ -518,7 +581,8 @@ def animate(
     Any other ``output`` (a folder, or a name without suffix) receives the PNG frames themselves.
     An existing video is refused before any rendering unless ``overwrite``. Frames already in
     the folder are reused when ``frame_key`` matches their manifest entry (see
-    :func:`render_sequence`); ``overwrite`` renders them all again. The frame folder is locked
+    :func:`render_sequence`); ``overwrite`` renders them all again. ``distribute`` renders the
+    missing frames elsewhere (``incandescent.cluster``). The frame folder is locked
     for the whole call, so a second run on the same output fails at once. With ``progress``, a
     progress bar and then the summary are printed to stderr. Returns the
     :class:`AnimationSummary`.
@@ -530,7 +594,7 @@ def animate(
     folder = _frame_folder(folder)
     with exclusive_lock(folder / LOCK_NAME, str(output)):
         frames, rendered = _render_missing(
-            volumes, n_frames, folder, render_frame, progress, frame_key, overwrite
+            volumes, n_frames, folder, render_frame, progress, frame_key, overwrite, distribute
         )
         video = _assemble(frames, output, suffix, fps, overwrite)
     seconds = time.perf_counter() - start

@@ -632,6 +632,12 @@ def animate(
     velocity_grid: str = OPT_VELOCITY_GRID,
     velocity_units: str = OPT_VELOCITY_UNITS,
     velocity_scale: float = OPT_VELOCITY_SCALE,
+    workers: int = typer.Option(
+        None, help="Render on a local Dask cluster of N worker processes [in-process]."
+    ),
+    scheduler: str = typer.Option(
+        None, help="Render on an existing Dask cluster: tcp://HOST:PORT [$INCANDESCENT_SCHEDULER]."
+    ),
     max_memory: float = OPT_MAX_MEMORY,
     max_samples: float = OPT_MAX_SAMPLES,
 ) -> None:
@@ -640,14 +646,18 @@ def animate(
     The camera frames the first file's box; the exposure is auto exposure of the middle frame.
     Re-running resumes: frames already in OUTPUT_frames/ that were made from the same files,
     settings and version (its manifest.json says) are not rendered again; frames made otherwise
-    are refused unless --overwrite. One run at a time writes an output.
+    are refused unless --overwrite. One run at a time writes an output. With --workers or
+    --scheduler the frames are Dask tasks (each reads its file, renders and writes its PNG); the
+    exit status is then 100 + the number of frames that failed (at most 125).
     """
     flags = dict(locals())
-    from incandescent import api
+    from incandescent import api, cluster
     from incandescent.animation import (
+        FramesFailed,
         expand_sequence,
         file_identity,
         fixed_display,
+        frame_path,
         key_frame,
         plan_output,
         render_video,
@@ -656,7 +666,7 @@ def animate(
 
     with _guarded():
         limits = _limits(max_memory, max_samples)
-        plan_output(output, None, overwrite)  # before reading or rendering anything
+        frame_dir, _ = plan_output(output, None, overwrite)  # before reading or rendering
         paths = expand_sequence(pattern)
         overrides = _overrides(flags)  # the same schema as `render` ...
         overrides.pop("output")  # ... except the output, a video or a folder here
@@ -685,19 +695,42 @@ def animate(
             api.DisplaySettings(exposure_ev=exposure),
         )
         start = time.perf_counter()
-        render_video(
-            volume_at,
-            len(paths),
-            output,
-            path,
-            settings,
-            display,
-            backend=backend,
-            overwrite=overwrite,
-            fps=fps,
-            frame_input=frame_input,
-            limits=limits,
-        )
+        camera_at = path if callable(path) else (lambda _: path)
+
+        def task(index: int, threads: int | None) -> cluster.FrameTask:
+            spec = scene.volume.model_copy(update={"path": paths[index]})
+            return cluster.FrameTask(index, spec, scene.remap(), settings.layout, blur_fps,
+                                     camera_at(index), settings, display, backend,
+                                     frame_path(frame_dir, index), threads)  # fmt: skip
+
+        with cluster.connect(workers, scheduler) as (client, threads):
+            distribute = None
+            if client is not None:
+
+                def distribute(todo, on_done):
+                    tasks = [task(i, threads) for i in todo]
+                    return cluster.run_tasks(client, tasks, on_done)
+
+            try:
+                render_video(
+                    volume_at,
+                    len(paths),
+                    output,
+                    path,
+                    settings,
+                    display,
+                    backend=backend,
+                    overwrite=overwrite,
+                    fps=fps,
+                    frame_input=frame_input,
+                    limits=limits,
+                    distribute=distribute,
+                )
+            except FramesFailed as failed:
+                for index, reason in sorted(failed.failures.items()):
+                    _say(f"frame {index} failed: {reason}")
+                _say(f"error: {failed}")
+                raise typer.Exit(code=min(100 + len(failed.failures), 125)) from None
     _say(f"animate: {len(paths)} frames in {time.perf_counter() - start:.1f} s")
 
 
