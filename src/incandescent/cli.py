@@ -753,6 +753,8 @@ def simulate(
     ),
     width: int = typer.Option(320, help="Rendered frame width."),
     height: int = typer.Option(480, help="Rendered frame height."),
+    workers: int = typer.Option(None, help="--render on a local Dask cluster of N workers."),
+    scheduler: str = typer.Option(None, help="--render on an existing Dask cluster."),
     overwrite: bool = typer.Option(False, help="Start again even if OUTPUT holds another run."),
 ) -> None:
     """Simulate a fire (Nguyen, Fedkiw & Jensen 2002) into frames the renderer reads.
@@ -779,7 +781,7 @@ def simulate(
             run.simulate(settings, resolution, frames, output, name, suffix, overwrite, on_frame)
         if render_to is not None:
             run.render_frames(output, frames, render_to, width, height, settings.fps,
-                              backend, overwrite, suffix)  # fmt: skip
+                              backend, overwrite, suffix, True, workers, scheduler)  # fmt: skip
             _say(f"  rendered {render_to}")
 
 

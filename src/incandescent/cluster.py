@@ -74,7 +74,7 @@ def _client_module():
         import distributed
     except ImportError:  # pragma: no cover - the dependency is declared
         raise RuntimeError(
-            "rendering on a cluster needs Dask: pip install 'dask[distributed]'"
+            "rendering on a cluster needs Dask: pip install 'incandescent[cluster]'"
         ) from None
     return distributed
 

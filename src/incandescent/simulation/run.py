@@ -177,11 +177,13 @@ def render_frames(
     overwrite: bool = False,
     suffix: str = ".npz",
     progress: bool = True,
+    workers: int | None = None,
+    scheduler: str | None = None,
 ):
     """Render simulated frames 1 … ``frames`` to ``video`` (.mp4, .gif or a folder) with
     ``animate``'s machinery (one camera on the whole domain, one exposure from the middle frame,
     frames keyed and resumable): blackbody from T and soot κ, the blue core by its CH and C₂
-    lines."""
+    lines. ``workers`` / ``scheduler``: render the frames as Dask tasks (``cluster``)."""
     from incandescent import api
     from incandescent.animation import fixed_display, render_video
     from incandescent.config import VolumeSection
@@ -205,16 +207,45 @@ def render_frames(
 
         return f"{file_identity(paths[index])} fire frame"
 
-    return render_video(
-        volume_at,
-        len(paths),
-        video,
-        camera,
-        settings,
-        display,
-        backend=backend,
-        overwrite=overwrite,
-        progress=progress,
-        fps=fps,
-        frame_input=describe,
-    )
+    from incandescent import cluster
+    from incandescent.animation import frame_path as png_path
+    from incandescent.animation import plan_output
+
+    folder, _ = plan_output(Path(video), None, overwrite)
+    with cluster.connect(workers, scheduler) as (client, threads):
+        distribute = None
+        if client is not None:
+
+            def distribute(todo, on_done):
+                tasks = [
+                    cluster.FrameTask(
+                        i,
+                        specs[i],
+                        api.Remap(),
+                        "dense",
+                        None,
+                        camera,
+                        settings,
+                        display,
+                        backend,
+                        png_path(folder, i),
+                        threads,
+                    )  # fmt: skip
+                    for i in todo
+                ]
+                return cluster.run_tasks(client, tasks, on_done)
+
+        return render_video(
+            volume_at,
+            len(paths),
+            video,
+            camera,
+            settings,
+            display,
+            backend=backend,
+            overwrite=overwrite,
+            progress=progress,
+            fps=fps,
+            frame_input=describe,
+            distribute=distribute,
+        )
