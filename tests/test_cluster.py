@@ -165,3 +165,18 @@ def test_a_worker_killed_mid_run_costs_no_frame(tmp_path, cluster):
     assert len(frames) == 16 and all(f.shape == (120, 160, 3) for f in frames)
     rerun = _animate(pattern, "-o", out, "--width", 160, "--height", 120, "--scheduler", address)
     assert rerun.exit_code == 0 and "(0 rendered, 16 reused)" in rerun.output
+
+
+def test_simulated_frames_render_on_workers_while_the_next_is_simulated(tmp_path):
+    """simulate --render --workers --exposure: each frame goes to the cluster once written; the
+    video has every frame, recorded so that a serial render of the same view reuses them all."""
+    out, video = tmp_path / "fire", tmp_path / "fire.gif"
+    args = ["simulate", "candle", "-o", out, "--resolution", 16, "--frames", 4, "--render",
+            video, "--width", 24, "--height", 32, "--exposure", 0]  # fmt: skip
+    result = _Run(CliRunner().invoke(app, [*map(str, args), "--workers", "2"]))
+    assert result.exit_code == 0, result.output
+    with Image.open(video) as gif:
+        assert gif.n_frames == 4
+    video.unlink()
+    serial = _Run(CliRunner().invoke(app, list(map(str, args))))
+    assert serial.exit_code == 0 and "(0 rendered, 4 reused)" in serial.output

@@ -278,6 +278,15 @@ def _write_manifest(frame_dir: Path, keys: dict[str, str]) -> None:
     write_json(frame_dir / MANIFEST_NAME, data, overwrite=True)
 
 
+def record_frames(frame_dir: PathLike, keys: dict[int, str]) -> None:
+    """Add frames rendered elsewhere (their PNGs already in ``frame_dir``) to its manifest under
+    ``keys`` (:func:`frame_key`), so that a render of the sequence reuses them."""
+    folder = Path(os.fspath(frame_dir))
+    manifest = _read_manifest(folder)
+    manifest.update({str(i): key for i, key in keys.items()})
+    _write_manifest(folder, manifest)
+
+
 def _reusable(frame_dir: Path, n_frames: int, key_of: Callable[[int], str], rerender: bool):
     """(frames to keep: index → (width, height), manifest entries to keep); frames made with
     another key are refused unless ``rerender``, which discards every frame."""
@@ -559,6 +568,18 @@ def _assemble(frames: list[Path], output: Path, suffix: str | None, fps: float, 
     if suffix == ".gif":
         return write_gif(read_frames(frames), output, fps=fps, overwrite=overwrite)
     return None
+
+
+def assemble_video(frame_dir: PathLike, n_frames: int, output: PathLike, fps: float,
+                   overwrite: bool = False) -> Path | None:  # fmt: skip
+    """The video ``output`` (.mp4/.gif) made from frames 0 … n_frames − 1 already in
+    ``frame_dir`` (rendered elsewhere and recorded with :func:`record_frames`); the folder is
+    locked meanwhile. None for a folder output."""
+    output = Path(os.fspath(output))
+    folder, suffix = plan_output(output, frame_dir, overwrite)
+    frames = [frame_path(folder, i) for i in range(_check_count(n_frames))]
+    with exclusive_lock(folder / LOCK_NAME, str(output)):
+        return _assemble(frames, output, suffix, _check_fps(fps), overwrite)
 
 
 def animate(

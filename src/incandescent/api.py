@@ -9,6 +9,7 @@ from incandescent.io.output import save_image, save_volume, write_json
 from incandescent.renderer import HDRImage, RenderSettings, render
 from incandescent.volume import Remap, Volume
 from incandescent.volume.assemble import load_volume, volume_from_section
+from incandescent.volume.sparse import SparseVolume
 
 __all__ = [
     "Camera",
@@ -30,7 +31,11 @@ __all__ = [
 
 
 def camera_from(
-    volume: Volume, eye=None, target=None, fov_deg: float = 40.0, frame_content: bool = True
+    volume: Volume | SparseVolume,
+    eye=None,
+    target=None,
+    fov_deg: float = 40.0,
+    frame_content: bool = True,
 ) -> Camera:
     """The default three-quarter camera — framing the gas, or the whole box when
     ``frame_content`` is false (animations) — with any of eye/target/fov overridden."""

@@ -755,6 +755,11 @@ def simulate(
     height: int = typer.Option(480, help="Rendered frame height."),
     workers: int = typer.Option(None, help="--render on a local Dask cluster of N workers."),
     scheduler: str = typer.Option(None, help="--render on an existing Dask cluster."),
+    exposure: float = typer.Option(
+        None,
+        help="--render with this fixed exposure (EV) [auto: from the middle frame]; with "
+        "--workers/--scheduler each frame then renders while the next is simulated.",
+    ),
     overwrite: bool = typer.Option(False, help="Start again even if OUTPUT holds another run."),
 ) -> None:
     """Simulate a fire (Nguyen, Fedkiw & Jensen 2002) into frames the renderer reads.
@@ -777,11 +782,25 @@ def simulate(
             from incandescent.animation import plan_output
 
             plan_output(render_to, None, overwrite)
+        overlap = render_to is not None and exposure is not None and (workers or scheduler)
         with _simulation_progress(frames) as on_frame:
-            run.simulate(settings, resolution, frames, output, name, suffix, overwrite, on_frame)
-        if render_to is not None:
+            if overlap:
+                run.simulate_and_render(settings, resolution, frames, output, render_to,
+                                        exposure, width, height, name, suffix, overwrite,
+                                        workers, scheduler, on_frame)  # fmt: skip
+            else:
+                run.simulate(settings, resolution, frames, output, name, suffix, overwrite,
+                             on_frame)  # fmt: skip
+        if render_to is not None and not overlap:
+            display = None
+            if exposure is not None:
+                from incandescent.imaging import DisplaySettings
+
+                display = DisplaySettings(exposure_ev=exposure, auto_exposure=False)
             run.render_frames(output, frames, render_to, width, height, settings.fps,
-                              backend, overwrite, suffix, True, workers, scheduler)  # fmt: skip
+                              backend, overwrite, suffix, True, workers, scheduler,
+                              display)  # fmt: skip
+        if render_to is not None:
             _say(f"  rendered {render_to}")
 
 

@@ -19,7 +19,7 @@ import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from incandescent.camera import Camera
@@ -80,7 +80,7 @@ def _client_module():
 
 
 @contextlib.contextmanager
-def connect(workers: int | None, scheduler: str | None) -> Iterator[tuple[object, int | None]]:
+def connect(workers: int | None, scheduler: str | None) -> Iterator[tuple[Any, int | None]]:
     """(Dask client, Dr.Jit threads per task) for ``workers`` local processes or an existing
     ``scheduler`` (default ``$INCANDESCENT_SCHEDULER``); (None, None) for neither: in-process."""
     scheduler = scheduler or os.environ.get(SCHEDULER_ENV) or None

@@ -179,6 +179,7 @@ def render_frames(
     progress: bool = True,
     workers: int | None = None,
     scheduler: str | None = None,
+    display=None,
 ):
     """Render simulated frames 1 … ``frames`` to ``video`` (.mp4, .gif or a folder) with
     ``animate``'s machinery (one camera on the whole domain, one exposure from the middle frame,
@@ -186,26 +187,18 @@ def render_frames(
     lines. ``workers`` / ``scheduler``: render the frames as Dask tasks (``cluster``)."""
     from incandescent import api
     from incandescent.animation import fixed_display, render_video
-    from incandescent.config import VolumeSection
 
     out_dir = Path(out_dir)
     paths = [frame_path(out_dir, i, suffix) for i in range(1, frames + 1)]
-    specs = [
-        VolumeSection(path=p, species={"CH": "CH", "C2": "C2"}, absorption=None) for p in paths
-    ]
+    specs = [_frame_spec(p) for p in paths]
 
     def volume_at(index: int):
         return api.volume_from_section(specs[index], api.Remap(), layout="dense")
 
-    first = volume_at(0)
-    camera = api.camera_from(first, fov_deg=35.0, frame_content=False)
-    settings = api.RenderSettings(width=width, height=height)
-    display = fixed_display(volume_at(len(paths) // 2), camera, settings, backend)
-
-    def describe(index: int) -> str:
-        from incandescent.animation import file_identity
-
-        return f"{file_identity(paths[index])} fire frame"
+    camera, settings = _render_view(paths[0], width, height)
+    if display is None:
+        display = fixed_display(volume_at(len(paths) // 2), camera, settings, backend)
+    describe = _describe(paths)
 
     from incandescent import cluster
     from incandescent.animation import frame_path as png_path
@@ -249,3 +242,94 @@ def render_frames(
             frame_input=describe,
             distribute=distribute,
         )
+
+
+def _frame_spec(path: Path):
+    """How a renderer reads a simulated frame: T, soot κ and the CH/C₂ lines."""
+    from incandescent.config import VolumeSection
+
+    return VolumeSection(path=path, species={"CH": "CH", "C2": "C2"}, absorption=None)
+
+
+def _render_view(first: Path, width: int, height: int):
+    """(camera on the whole domain, render settings): every frame has the same box."""
+    from incandescent import api
+
+    volume = api.volume_from_section(_frame_spec(first), api.Remap(), layout="dense")
+    camera = api.camera_from(volume, fov_deg=35.0, frame_content=False)
+    return camera, api.RenderSettings(width=width, height=height)
+
+
+def _describe(paths: list[Path]) -> Callable[[int], str]:
+    from incandescent.animation import file_identity
+
+    return lambda index: f"{file_identity(paths[index])} fire frame"
+
+
+def simulate_and_render(
+    settings: FireSettings,
+    resolution: int,
+    frames: int,
+    out_dir: str | Path,
+    video: str | Path,
+    exposure_ev: float,
+    width: int = 320,
+    height: int = 480,
+    backend: str = "auto",
+    suffix: str = ".npz",
+    overwrite: bool = False,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    on_frame: Callable[[FrameReport], None] | None = None,
+):
+    """Simulate and render at once: each frame, once written, is sent to the Dask cluster as a
+    render task (with a fixed ``exposure_ev``: auto exposure would need the middle frame first),
+    so rendering overlaps simulating; then the video is assembled from the frames."""
+    from incandescent import api, cluster
+    from incandescent.animation import (
+        FramesFailed,
+        assemble_video,
+        frame_key,
+        plan_output,
+        record_frames,
+    )
+    from incandescent.animation import frame_path as png_path
+
+    out_dir = Path(out_dir)
+    folder, _ = plan_output(Path(video), None, overwrite)
+    folder.mkdir(parents=True, exist_ok=True)
+    display = api.DisplaySettings(exposure_ev=exposure_ev, auto_exposure=False)
+    paths = [frame_path(out_dir, i, suffix) for i in range(1, frames + 1)]
+    describe = _describe(paths)
+    with cluster.connect(workers, scheduler) as (client, threads):
+        if client is None:
+            raise ValueError("rendering while simulating needs --workers or --scheduler")
+        view: dict = {}
+        futures: dict = {}
+
+        def submit(report: FrameReport) -> None:
+            if on_frame is not None:
+                on_frame(report)
+            if not view:
+                view["camera"], view["settings"] = _render_view(report.path, width, height)
+            index = report.frame - 1
+            task = cluster.FrameTask(index, _frame_spec(report.path), api.Remap(), "dense", None,
+                                     view["camera"], view["settings"], display, backend,
+                                     png_path(folder, index), threads)  # fmt: skip
+            futures[index] = client.submit(
+                cluster.render_task, task, retries=cluster.RETRIES, pure=False
+            )
+
+        simulate(settings, resolution, frames, out_dir, backend, suffix, overwrite, submit)
+        failures, keys = {}, {}
+        for index, future in futures.items():
+            try:
+                future.result()
+            except Exception as error:  # noqa: BLE001 - reported per frame
+                failures[index] = f"{paths[index]}: {type(error).__name__}: {error}"
+                continue
+            keys[index] = frame_key(describe(index), view["camera"], view["settings"], display)
+        record_frames(folder, keys)
+        if failures:
+            raise FramesFailed(failures)
+    return assemble_video(folder, frames, video, settings.fps, overwrite)
