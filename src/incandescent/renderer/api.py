@@ -16,7 +16,7 @@ from incandescent.renderer.backends import MarchInputs, resolve_backend, run_mar
 from incandescent.renderer.backends.bricks import brick_bytes
 from incandescent.renderer.backends.common import upper_samples_per_ray
 from incandescent.renderer.film import HDRImage, resolve_pixels
-from incandescent.renderer.layout import layout_volume
+from incandescent.renderer.layout import blur_rings, layout_volume
 from incandescent.renderer.rays import prepare_rays, ray_spec
 from incandescent.renderer.settings import RenderSettings
 from incandescent.spectra.lut import T_MAX_K
@@ -125,7 +125,8 @@ def _march_inputs(volume, camera, settings, backend: str, models) -> MarchInputs
         cells = volume.macrocells(settings.macrocell_voxels)  # κ only (``layout``)
     elif settings.skip_empty and backend != "reference":
         cells = volume.macrocells(settings.macrocell_voxels, *_occupancy(models))
-        cells = dilated(cells, _blur_rings(volume, settings))
+    if cells is not None:
+        cells = dilated(cells, blur_rings(volume, settings))
     rays = prepare_rays(camera, volume, settings) if backend == "reference" else None
     return MarchInputs(rays, volume, models, cells, settings, ray_spec(camera, volume, settings))
 
@@ -142,16 +143,6 @@ def _check_blur(volume, settings: RenderSettings, backend: str) -> None:
         )
     if backend == "reference":
         raise ValueError("motion blur runs on the cpu and cuda backends, not the reference")
-
-
-def _blur_rings(volume, settings: RenderSettings) -> int:
-    """Macrocells a blurred sample may read away from its own: the largest displacement
-    max|v_i|·max|t| along any axis, in cells (DESIGN §4: skipping stays exact)."""
-    shutter = settings.shutter_s
-    if shutter is None or volume.velocity_m_s is None:
-        return 0
-    reach = volume.max_speed_m_s * max(abs(t) for t in shutter) / volume.voxel_size_m
-    return int(np.ceil(reach / settings.macrocell_voxels))
 
 
 def _occupancy(models) -> tuple[str, Callable[[Volume], np.ndarray] | None]:

@@ -9,11 +9,14 @@
 ``auto`` takes sparse for a :class:`SparseVolume` (densifying a big cache is what it avoids) and for
 a dense volume whose occupied leaves are under :data:`AUTO_SPARSE_FRACTION` of the box, or whose
 dense layout would not fit in memory while the sparse one does; dense otherwise and whenever the
-sparse layout cannot carry the render (it marches blackbody emission from T and κ: no species
-lines, no paper mode, no emission-scale grid, 8-voxel macrocells).
+sparse layout cannot carry the render (it marches blackbody emission from T and κ, and the
+velocity for motion blur: no species lines, no paper mode, no emission-scale grid, 8-voxel
+macrocells).
 """
 
 from __future__ import annotations
+
+import numpy as np
 
 from incandescent.budget import Limits
 from incandescent.emission import EmissionModel
@@ -35,8 +38,6 @@ def sparse_problem(volume, settings: RenderSettings, models, backend: str) -> st
             return f"the {model.name} model reads grids besides T and κ"
     if volume.emission_scale is not None or volume.sodium_fraction is not None or volume.species:
         return "the volume has grids besides T and κ"
-    if settings.shutter is not None and volume.velocity_m_s is not None:
-        return "motion blur reads the velocity grid, which the sparse layout does not carry"
     if settings.skip_empty and settings.macrocell_voxels != LEAF:
         return f"its macrocells are its {LEAF}-voxel leaves (macrocell_voxels={LEAF})"
     return None
@@ -58,8 +59,18 @@ def layout_volume(
     if isinstance(volume, SparseVolume):
         return volume
     if settings.layout == "sparse" or _sparse_pays(volume, limits):
-        return _sparse_of(volume)
+        return _sparse_of(volume, blur_rings(volume, settings))
     return volume
+
+
+def blur_rings(volume, settings: RenderSettings) -> int:
+    """Macrocells a blurred sample may read away from its own: the largest displacement
+    max|v_i|·max|t| along any axis, in cells (DESIGN §4: skipping stays exact); 0 without blur."""
+    shutter = settings.shutter_s
+    if shutter is None or volume.velocity_m_s is None:
+        return 0
+    reach = volume.max_speed_m_s * max(abs(t) for t in shutter) / volume.voxel_size_m
+    return int(np.ceil(reach / settings.macrocell_voxels))
 
 
 def _dense(volume, limits: Limits) -> Volume:
@@ -85,7 +96,8 @@ def _sparse_pays(volume: Volume, limits: Limits) -> bool:
     return 8.0 * padded > limits.memory_bytes()
 
 
-def _sparse_of(volume: Volume) -> SparseVolume:
-    if "sparse" not in volume._cache:
-        volume._cache["sparse"] = SparseVolume.from_volume(volume)
-    return volume._cache["sparse"]
+def _sparse_of(volume: Volume, rings: int = 0) -> SparseVolume:
+    key = ("sparse", rings)
+    if key not in volume._cache:
+        volume._cache[key] = SparseVolume.from_volume(volume, rings)
+    return volume._cache[key]

@@ -54,14 +54,14 @@ class SparseVolume(Placed):
     voxel_size_m: float
     absorption_source: str = "grid"
     temperature_source: str = "given in K"
+    #: (n, 8, 8, 8, 3) float32 gas velocity in m/s (motion blur), or None
+    leaf_velocity_m_s: NDArray[np.float32] | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     # What a dense Volume has that a sparse one does not carry (the sparse layout marches
     # blackbody emission from κ and T; species, sodium and emission-scale grids stay dense).
     emission_scale = None
     sodium_fraction = None
-    velocity_m_s = None
-    max_speed_m_s = 0.0
     species: ClassVar[Mapping[str, NDArray[np.float32]]] = MappingProxyType({})
 
     @classmethod
@@ -74,6 +74,7 @@ class SparseVolume(Placed):
         voxel_size_m: float | None = None,
         origin_m=None,
         source: str = "leaves",
+        velocity_m_s=None,
     ) -> SparseVolume:
         """Validate leaves (coordinates inside the grid, unique; values finite, ≥ 0, T below the
         tables' ceiling; κ = 0 wherever T = 0 is not required) and place them like
@@ -90,24 +91,45 @@ class SparseVolume(Placed):
             raise ValueError(f"{source}: voxel_size_m must be > 0; got {voxel_size_m!r}")
         origin = tuple(-0.5 * n * voxel for n in shape) if origin_m is None else origin_m
         x, y, z = (float(o) for o in origin)
-        return cls(shape, coords, temp, kappa, (x, y, z), voxel)
+        velocity = None
+        if velocity_m_s is not None:
+            velocity = np.ascontiguousarray(velocity_m_s, dtype=np.float32)
+            if (
+                velocity.shape != (len(coords), LEAF, LEAF, LEAF, 3)
+                or not np.isfinite(velocity).all()
+            ):
+                raise ValueError(
+                    f"{source}: velocity must be finite ({len(coords)}, 8, 8, 8, 3) leaves"
+                )
+        return cls(shape, coords, temp, kappa, (x, y, z), voxel, leaf_velocity_m_s=velocity)
 
     @classmethod
-    def from_volume(cls, volume: Volume) -> SparseVolume:
+    def from_volume(cls, volume: Volume, blur_rings: int = 0) -> SparseVolume:
         """The leaves of a dense Volume that absorb, and their neighbours' non-zero T.
 
         A sample whose trilinear κ is > 0 reads T only from the leaves around an absorbing voxel,
         so with blackbody emission (which needs κ > 0) the image equals the dense volume's; T in
-        leaves farther from any absorption is never read and is dropped."""
+        leaves farther from any absorption is never read and is dropped. ``blur_rings``: motion
+        blur reads the velocity in every macrocell that many leaves from an absorbing one, so
+        those leaves (and one more ring, for the trilinear stencil) keep their velocity."""
         extra = [n for n in ("emission_scale", "sodium_fraction") if getattr(volume, n) is not None]
         if extra or volume.species:
             names = ", ".join(extra + [f"species {s}" for s in volume.species])
             raise ValueError(f"the sparse layout carries T and κ only; this volume has {names}")
         cells = volume.macrocells(LEAF)  # κ over each leaf and its border, cached on the volume
-        coords = np.argwhere(dilate_cells(cells.max_absorption > 0)).astype(np.int32)
+        reach = cells.max_absorption > 0
+        with_velocity = volume.velocity_m_s is not None and blur_rings > 0
+        for _ in range(1 + (blur_rings if with_velocity else 0)):
+            reach = dilate_cells(reach)
+        coords = np.argwhere(reach).astype(np.int32)
         leaves_t = _blocks(volume.temperature_K)[tuple(coords.T)]  # copies of these leaves only
         leaves_k = _blocks(volume.absorption_per_m)[tuple(coords.T)]
         keep = np.any((leaves_t != 0) | (leaves_k != 0), axis=(1, 2, 3))
+        velocity = None
+        if with_velocity and volume.velocity_m_s is not None:
+            velocity = _blocks(volume.velocity_m_s)[tuple(coords.T)]
+            keep |= np.any(velocity != 0, axis=(1, 2, 3, 4))
+            velocity = np.ascontiguousarray(velocity[keep])
         out = cls(
             volume.shape,
             coords[keep],
@@ -117,6 +139,7 @@ class SparseVolume(Placed):
             volume.voxel_size_m,
             volume.absorption_source,
             volume.temperature_source,
+            velocity,
         )
         out._cache[("macrocells", LEAF, "absorption")] = cells  # the same cells, exactly
         out._cache["two_valued_kappa"] = volume.two_valued_absorption_per_m
@@ -155,6 +178,17 @@ class SparseVolume(Placed):
             lo[axis], hi[axis] = first.min(), last.max() + 1
         origin = np.asarray(self.origin_m)
         return origin + lo * self.voxel_size_m, origin + hi * self.voxel_size_m
+
+    @property
+    def velocity_m_s(self) -> NDArray[np.float32] | None:
+        """The leaves' velocity (what tells a blurring render it has one), or None."""
+        return self.leaf_velocity_m_s
+
+    @property
+    def max_speed_m_s(self) -> float:
+        """Largest |v| component over the leaves, m/s (0 without velocity)."""
+        v = self.leaf_velocity_m_s
+        return 0.0 if v is None or v.size == 0 else float(np.abs(v).max())
 
     @property
     def max_temperature_K(self) -> float:
@@ -196,8 +230,13 @@ class SparseVolume(Placed):
         kappa = np.zeros(self.shape, dtype=np.float32)
         for dense, leaves in ((temp, self.leaf_temperature_K), (kappa, self.leaf_absorption_per_m)):
             _scatter_leaves(dense, self.leaf_coords, leaves)
-        for a in (temp, kappa):
-            a.setflags(write=False)
+        velocity = None
+        if self.leaf_velocity_m_s is not None:
+            velocity = np.zeros(self.shape + (3,), dtype=np.float32)
+            _scatter_leaves(velocity, self.leaf_coords, self.leaf_velocity_m_s)
+        for a in (temp, kappa, velocity):
+            if a is not None:
+                a.setflags(write=False)
         return Volume(
             temp,
             kappa,
@@ -206,6 +245,7 @@ class SparseVolume(Placed):
             self.voxel_size_m,
             self.absorption_source,
             temperature_source=self.temperature_source,
+            velocity_m_s=velocity,
         )
 
 
@@ -237,20 +277,23 @@ def _leaf_values(values, n: int, name: str, source: str) -> NDArray[np.float32]:
 
 
 def _blocks(grid: NDArray) -> NDArray:
-    """(lx, ly, lz, 8, 8, 8) leaves of a dense grid, zero-padded to whole leaves."""
-    padded_shape = tuple(-(-n // LEAF) * LEAF for n in grid.shape)
-    if padded_shape != grid.shape:
-        out = np.zeros(padded_shape, dtype=grid.dtype)
+    """(lx, ly, lz, 8, 8, 8[, c]) leaves of a dense grid (of scalars or c-vectors), zero-padded
+    to whole leaves."""
+    rest = grid.shape[3:]
+    padded_shape = tuple(-(-n // LEAF) * LEAF for n in grid.shape[:3])
+    if padded_shape != grid.shape[:3]:
+        out = np.zeros(padded_shape + rest, dtype=grid.dtype)
         out[: grid.shape[0], : grid.shape[1], : grid.shape[2]] = grid
         grid = out
     lx, ly, lz = (n // LEAF for n in padded_shape)
-    return grid.reshape(lx, LEAF, ly, LEAF, lz, LEAF).transpose(0, 2, 4, 1, 3, 5)
+    view = grid.reshape((lx, LEAF, ly, LEAF, lz, LEAF) + rest)
+    return view.transpose((0, 2, 4, 1, 3, 5) + tuple(range(6, 6 + len(rest))))
 
 
 def _scatter_leaves(dense: NDArray, coords: NDArray, leaves: NDArray) -> None:
     """Write leaves into a dense grid (voxels beyond the grid's shape are dropped)."""
-    whole = _padded(dense.shape) == dense.shape
-    full = dense if whole else np.zeros(_padded(dense.shape), dtype=dense.dtype)
+    whole = _padded(dense.shape[:3]) == dense.shape[:3]
+    full = dense if whole else np.zeros(_padded(dense.shape[:3]) + dense.shape[3:], dense.dtype)
     _blocks(full)[tuple(coords.T)] = leaves  # _blocks of whole leaves is a view of ``full``
     if not whole:
         nx, ny, nz = dense.shape

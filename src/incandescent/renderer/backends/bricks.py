@@ -84,12 +84,10 @@ def brick_bytes(volume: SparseVolume, packed: bool) -> float:
     return p.bricks * BRICK_VOXELS * (8.0 if packed else 4.0) + 4.0 * p.slots.size
 
 
-def device_bricks(m, volume: SparseVolume, packed: bool, brick_plan: BrickPlan | None = None):
-    """(pool, index) on the device: the pool holds (κ, T) packed in UInt64 (``packed``) or T's
-    bits with the sign set where κ = 0, brick after brick (x, y, z order inside, z fastest); the
-    index holds each brick's slot. Built by one Dr.Jit kernel over the pool's voxels."""
+def _reader(m, volume: SparseVolume, p: BrickPlan):
+    """``read(leaves, components, component)``: a leaf field's values in the pool — for every
+    voxel of every brick, the leaf voxel it holds (edge rule); 0 where the leaf is absent."""
     dr = drjit_module()
-    p = brick_plan or plan(volume)
     lane = dr.arange(m.UInt, p.bricks * BRICK_VOXELS)
     brick, k = lane // BRICK_VOXELS, lane % BRICK_VOXELS
     local = (k // (BRICK * BRICK), (k // BRICK) % BRICK, k % BRICK)
@@ -103,14 +101,24 @@ def device_bricks(m, volume: SparseVolume, packed: bool, brick_plan: BrickPlan |
     slot = dr.gather(m.UInt, m.UInt(p.leaf_slots.ravel()), leaf)
     within = ((voxel[0] & 7) * LEAF + (voxel[1] & 7)) * LEAF + (voxel[2] & 7)
     present = (slot > 0) & (brick > 0)
-    at = (slot - 1) * (LEAF**3) + within
 
-    def read(leaves):
+    def read(leaves: np.ndarray, components: int = 1, component: int = 0):
         if leaves.size == 0:  # no leaf: every brick is the brick of zeros
             return dr.zeros(m.UInt, p.bricks * BRICK_VOXELS)
-        bits = dr.reinterpret_array(m.UInt, m.Float(leaves.ravel()))
+        bits = dr.reinterpret_array(m.UInt, m.Float(np.ascontiguousarray(leaves).ravel()))
+        at = ((slot - 1) * (LEAF**3) + within) * components + component
         return dr.gather(m.UInt, bits, at, present)  # 0 (T = κ = 0) where absent
 
+    return read
+
+
+def device_bricks(m, volume: SparseVolume, packed: bool, brick_plan: BrickPlan | None = None):
+    """(pool, index) on the device: the pool holds (κ, T) packed in UInt64 (``packed``) or T's
+    bits with the sign set where κ = 0, brick after brick (x, y, z order inside, z fastest); the
+    index holds each brick's slot. Built by one Dr.Jit kernel over the pool's voxels."""
+    dr = drjit_module()
+    p = brick_plan or plan(volume)
+    read = _reader(m, volume, p)
     kappa, temp = read(volume.leaf_absorption_per_m), read(volume.leaf_temperature_K)
     if packed:
         pool = m.UInt64(kappa) | (m.UInt64(temp) << 32)
@@ -120,3 +128,15 @@ def device_bricks(m, volume: SparseVolume, packed: bool, brick_plan: BrickPlan |
     index = m.UInt(p.slots.ravel())
     dr.eval(pool, index)
     return pool, index
+
+
+def velocity_bricks(m, volume: SparseVolume, brick_plan: BrickPlan | None = None) -> list:
+    """The leaves' velocity (m/s) as three Float pools in the bricks' layout (motion blur)."""
+    dr = drjit_module()
+    p = brick_plan or plan(volume)
+    read = _reader(m, volume, p)
+    velocity = volume.leaf_velocity_m_s
+    assert velocity is not None
+    pools = [dr.reinterpret_array(m.Float, read(velocity, 3, a)) for a in range(3)]
+    dr.eval(*pools)
+    return pools

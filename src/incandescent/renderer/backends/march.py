@@ -20,7 +20,12 @@ import weakref
 
 import numpy as np
 
-from incandescent.renderer.backends.bricks import BRICK, BRICK_VOXELS, device_bricks
+from incandescent.renderer.backends.bricks import (
+    BRICK,
+    BRICK_VOXELS,
+    device_bricks,
+    velocity_bricks,
+)
 from incandescent.renderer.backends.bricks import plan as volume_plan
 from incandescent.renderer.backends.common import (
     THIN_STEP,
@@ -75,8 +80,11 @@ class _Kernel:
         #: divided by the voxel side (set by ``trace``); None without blur
         self.velocity = self.time_voxels = None
         if inputs.ray_spec is not None and _blurs(inputs.ray_spec, vol):
-            v = vol.velocity_m_s
-            self.velocity = [self.grid(("velocity", a), v[..., a]) for a in range(3)]  # type: ignore[index]
+            if isinstance(vol, SparseVolume):
+                self.velocity = _device_velocity_bricks(m, vol)
+            else:
+                v = vol.velocity_m_s
+                self.velocity = [self.grid(("velocity", a), v[..., a]) for a in range(3)]  # type: ignore[index]
         self.display = next(((mo, b) for mo, b in self.terms if mo.kind == "display"), None)
         self.sources = [(mo, b, i) for i, (mo, b) in enumerate(self.terms) if mo.kind == "source"]
         self.coefficients = [
@@ -375,6 +383,16 @@ def _device_bricks(m, volume: SparseVolume):
         packed = volume.two_valued_absorption_per_m is None
         per_volume[key] = device_bricks(m, volume, packed, plan) + (plan.brick_shape,)
         drjit_module().sync_thread()  # built before the march is timed, as the dense layout is
+    return per_volume[key]
+
+
+def _device_velocity_bricks(m, volume: SparseVolume) -> list:
+    """The velocity pools of a sparse volume, built once per volume."""
+    per_volume = _DEVICE_GRIDS.setdefault(volume, {})
+    key = (m.__name__, "velocity bricks")
+    if key not in per_volume:
+        per_volume[key] = velocity_bricks(m, volume, volume_plan(volume))
+        drjit_module().sync_thread()
     return per_volume[key]
 
 
