@@ -151,7 +151,8 @@ def ask(path: Path, request: dict) -> dict:
                 f"{path}: OpenVDB {what} reading this file: it is corrupt or truncated"
             )
     if not reply.get("ok"):
-        raise ValueError(f"{path}: OpenVDB cannot read it ({reply.get('error')})")
+        doing = "cannot write it" if request.get("op") == "write" else "cannot read it"
+        raise ValueError(f"{path}: OpenVDB {doing} ({reply.get('error')})")
     return reply
 
 

@@ -233,7 +233,7 @@ def write(request: dict) -> dict:
         grid = vdb.Vec3SGrid() if vector else vdb.FloatGrid()
         grid.name = spec["name"]
         grid.copyFromArray(values, ijk=(0, 0, 0), tolerance=(0.0, 0.0, 0.0) if vector else 0.0)
-        grid.prune()
+        grid.prune(tolerance=(0.0, 0.0, 0.0) if vector else 0.0)
         grid.transform = vdb.createLinearTransform(voxelSize=float(spec["voxel_size"]))
         grid.transform.translate(tuple(float(v) for v in spec["translation"]))
         grid.gridClass = vdb.GridClass.FOG_VOLUME
