@@ -61,6 +61,7 @@ def operator(ops, layout: Layout, fluid: np.ndarray, open_sides: tuple) -> Level
             diagonal = diagonal + weight + border
             pairs.append((index, weight))
     diagonal = ops.select(is_fluid > 0.0, ops.maximum(diagonal, 1e-12), 1.0)
+    ops.evaluate(diagonal, *(weight for _, weight in pairs))  # stored, not re-derived per use
     return Level(layout, diagonal, pairs)
 
 
@@ -89,6 +90,7 @@ def hierarchy(ops, shape, fluid: np.ndarray, open_sides: tuple, coarsest: int = 
         level = operator(ops, cells(coarse_shape), coarse_fluid, open_sides)
         level.diagonal = level.diagonal * scale  # type: ignore[operator]
         level.neighbours = [(index, weight * scale) for index, weight in level.neighbours]
+        ops.evaluate(level.diagonal, *(weight for _, weight in level.neighbours))
         levels.append(level)
         shape, fluid = coarse_shape, coarse_fluid
     return levels
