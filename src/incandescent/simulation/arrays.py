@@ -52,6 +52,15 @@ class Ops:
     def evaluate(self, *arrays) -> None:
         """Compute lazily built arrays now (a no-op for NumPy)."""
 
+    def scalar(self, value: float):
+        """A per-call number (a time step, a CG coefficient): a kernel *input* on Dr.Jit, so a
+        new value reuses the compiled kernel instead of tracing a new constant into one."""
+        return float(value)
+
+    def scalar_int(self, value: int):
+        """An integer kernel input (see :meth:`scalar`)."""
+        return int(value)
+
     def numpy(self, x) -> np.ndarray:
         raise NotImplementedError
 
@@ -162,6 +171,12 @@ class DrJitOps(Ops):
 
     def evaluate(self, *arrays):
         self.dr.eval(*arrays)
+
+    def scalar(self, value: float):
+        return self.dr.opaque(self.m.Float, float(value))
+
+    def scalar_int(self, value: int):
+        return self.dr.opaque(self.m.Int, int(value))
 
     def numpy(self, x):
         return np.asarray(x, dtype=np.float64)

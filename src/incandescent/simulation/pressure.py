@@ -7,7 +7,7 @@ adds 1 to d_c, a face to open air (the domain's open sides and top) adds 1 to d_
 it). Solid cells are not unknowns (d = 1, φ = 0). A is symmetric positive definite.
 
 Preconditioner (McAdams, Sifakis & Teran 2010, simplified): one V-cycle with damped Jacobi
-smoothing (ω = 2/3, ν sweeps before and after), restriction R = sum over the 8 children and
+smoothing (ω = 0.8, one sweep before and one after), restriction R = sum over the 8 children and
 piecewise-constant prolongation P = Rᵀ, and coarse operators 4 × the rediscretised unit Laplacian
 of the coarsened masks (the Galerkin product PᵀAP of interior cells). Jacobi and R = Pᵀ keep the
 V-cycle symmetric, as CG needs. The solve stops when max|r| ≤ ``tolerance`` · max|b|; the
@@ -22,8 +22,11 @@ import numpy as np
 
 from incandescent.simulation.grid import Layout, cells, flat_index, indices, neighbour
 
-JACOBI_WEIGHT = 2.0 / 3.0
-SMOOTHING_SWEEPS = 2
+#: Damped Jacobi (ω below 6/7, the best smoothing weight of the 7-point Laplacian in 3-D), one
+#: sweep before and after: measured on a 128³ solve 0.51 s (24 iterations) against 0.62 s
+#: (21 iterations) for ω = 2/3 and two sweeps.
+JACOBI_WEIGHT = 0.8
+SMOOTHING_SWEEPS = 1
 COARSEST_SWEEPS = 24
 
 
@@ -148,7 +151,7 @@ def solve(
     for iteration in range(1, max_iterations + 1):
         ap = apply(ops, level, p)
         ops.evaluate(ap)
-        alpha = rz / ops.sum(p * ap)
+        alpha = ops.scalar(rz / ops.sum(p * ap))
         x, r = x + alpha * p, r - alpha * ap
         ops.evaluate(x, r)
         relative = ops.max_abs(r) / scale
@@ -156,6 +159,6 @@ def solve(
             return x, SolveReport(iteration, relative)
         z = v_cycle(ops, levels, r)
         rz_next = ops.sum(r * z)
-        p, rz = z + (rz_next / rz) * p, rz_next
+        p, rz = z + ops.scalar(rz_next / rz) * p, rz_next
         ops.evaluate(p)
     return x, SolveReport(max_iterations, ops.max_abs(r) / scale)

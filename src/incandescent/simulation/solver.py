@@ -170,7 +170,7 @@ class FireSolver:
     def _velocity_at(self, velocity, p):
         return [sample(self.ops, velocity[a], self.face[a], p) for a in range(3)]
 
-    def _advect(self, q, layout: Layout, points, velocity, dt: float, carried_by=None):
+    def _advect(self, q, layout: Layout, points, velocity, dt, carried_by=None):
         """q advected by ``velocity`` over dt: semi-Lagrangian, MacCormack-corrected if set;
         ``carried_by``: where each sample takes its velocity from (default: where it is)."""
         ops = self.ops
@@ -187,21 +187,24 @@ class FireSolver:
     # --- one step --------------------------------------------------------------------------
     def step(self, state: FireState, dt: float) -> tuple[FireState, StepReport]:
         ops, s = self.ops, self.settings
-        u = state.velocity
-        velocity = [self._advect(u[a], self.face[a], self.face_points[a], u, dt) for a in range(3)]
+        u, step = state.velocity, ops.scalar(dt)  # a kernel input: a new Δt compiles nothing
+        velocity = [
+            self._advect(u[a], self.face[a], self.face_points[a], u, step) for a in range(3)
+        ]
         temperature, soot = (
-            self._advect(q, self.cell, self.centres, u, dt) for q in (state.temperature, state.soot)
+            self._advect(q, self.cell, self.centres, u, step)
+            for q in (state.temperature, state.soot)
         )
         fuel_side = self._fuel_side(state.phi)
-        phi = self._advect(state.phi, self.cell, self.centres, u, dt, carried_by=fuel_side)
+        phi = self._advect(state.phi, self.cell, self.centres, u, step, carried_by=fuel_side)
         ops.evaluate(*velocity, phi, temperature, soot)
         phi, velocity = self._sources(phi, velocity, state)
         speed = s.flame_speed_m_s / self.h
-        phi = ops.clip(phi + speed * dt, -PHI_LIMIT, PHI_LIMIT)
-        velocity = self._forces(velocity, temperature, soot, dt)
+        phi = ops.clip(phi + speed * step, -PHI_LIMIT, PHI_LIMIT)
+        velocity = self._forces(velocity, temperature, soot, step)
         target = (s.density_ratio - 1.0) * speed * self._delta(phi)
         velocity, p, report = self._project(velocity, target, state.pressure)
-        temperature, soot = self._heat(phi, temperature, soot, dt)
+        temperature, soot = self._heat(phi, temperature, soot, dt, step)
         ops.evaluate(*velocity, phi, temperature, soot, p)
         new = replace(
             state,
@@ -252,7 +255,7 @@ class FireSolver:
         """Deterministic noise in [−1, 1) per sample: a hash of index, step, component and seed."""
         ops = self.ops
         key = (self.settings.seed * 0x9E3779B1 + step * 0x85EBCA77 + salt * 0xC2B2AE3D) & 0x7FFFFFFF
-        x = (ops.arange(layout.size) * 1103515245 + key) & 0x7FFFFFFF
+        x = (ops.arange(layout.size) * 1103515245 + ops.scalar_int(key)) & 0x7FFFFFFF
         x = (x * 1103515245 + 12345) & 0x7FFFFFFF
         return ops.to_float(x) * (2.0 / 2147483648.0) - 1.0
 
@@ -276,11 +279,11 @@ class FireSolver:
         high = ops.gather(q, flat_index(self.cell, *ijk_high))
         return 0.5 * (low + high)
 
-    def _forces(self, velocity, temperature, soot, dt: float):
+    def _forces(self, velocity, temperature, soot, dt):
         s = self.settings
         lift = s.buoyancy_m_s2_K * (temperature - s.t_air_K) - s.soot_weight_m_s2 * soot
         velocity = list(velocity)
-        velocity[1] = velocity[1] + dt / self.h * self._cell_value_at_faces(lift, 1)
+        velocity[1] = velocity[1] + dt * (1.0 / self.h) * self._cell_value_at_faces(lift, 1)
         if s.vorticity > 0:
             confinement = vorticity_confinement(self, velocity)
             for a in range(3):
@@ -299,18 +302,20 @@ class FireSolver:
         report = StepReport(0.0, solve.iterations, solve.relative_residual, ops.max_abs(residual))
         return velocity, p, report
 
-    def _heat(self, phi, temperature, soot, dt: float):
+    def _heat(self, phi, temperature, soot, dt: float, step):
+        """Ignition in the fuel, T_max at the front, radiative cooling, soot; ``step`` is Δt as
+        a kernel input."""
         ops, s = self.ops, self.settings
         fuel = phi < 0.0
         reacting = (phi >= 0.0) & (phi < FRONT_CELLS)
         temperature = ops.select(fuel, s.t_ignition_K, temperature)
         temperature = ops.select(reacting, s.t_max_K, temperature)
         excess = ops.clip((temperature - s.t_air_K) / (s.t_max_K - s.t_air_K), 0.0, 1.0)
-        temperature = temperature - dt * s.cooling_K_s * excess**4
+        temperature = temperature - step * s.cooling_K_s * excess**4
         temperature = ops.clip(temperature, s.t_air_K, s.t_max_K)
         sooting = (temperature > s.soot_min_K) & (phi >= 0.0)
-        soot = soot + ops.select(sooting, dt * s.soot_rate_per_s, 0.0)
-        soot = ops.maximum(soot * math.exp(-s.soot_decay_per_s * dt), 0.0)
+        soot = soot + ops.select(sooting, step * s.soot_rate_per_s, 0.0)
+        soot = ops.maximum(soot * ops.scalar(math.exp(-s.soot_decay_per_s * dt)), 0.0)
         return temperature, soot
 
 
