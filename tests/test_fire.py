@@ -225,3 +225,32 @@ def test_simulate_writes_renderable_frames_and_resumes(tmp_path):
     assert other.exit_code == 2 and "another simulation" in other.output
     volume = api.load_volume(out / "fire_0003.npz")
     assert volume.voxel_size_m == pytest.approx(0.6 / 16)  # placed by the frame's own keys
+
+
+def test_simulate_renders_each_frame_as_it_is_written_with_a_fixed_exposure(tmp_path):
+    """--render with --exposure renders frame n before frame n + 1 is simulated, in-process;
+    the frames are recorded: a second run makes the video from them, one with another view is
+    refused."""
+    from typer.testing import CliRunner
+
+    from incandescent.cli import app
+
+    args = ["simulate", "candle", "-o", str(tmp_path / "fire"), "--resolution", "16", "--frames",
+            "3", "--render", str(tmp_path / "f.gif"), "--width", "24", "--height", "32",
+            "--exposure", "0"]  # fmt: skip
+    first = CliRunner().invoke(app, args)
+    assert first.exit_code == 0, first.output
+    frames = sorted((tmp_path / "f_frames").glob("frame_*.png"))
+    assert len(frames) == 3
+    written = [p.stat().st_mtime_ns for p in frames]
+    fires = [(tmp_path / "fire" / f"fire_{i:04d}.npz").stat().st_mtime_ns for i in (1, 2, 3)]
+    assert written[0] < fires[1] and written[1] < fires[2]  # interleaved with the simulation
+    (tmp_path / "f.gif").unlink()
+    same = CliRunner().invoke(app, args)
+    assert same.exit_code == 0 and (tmp_path / "f.gif").stat().st_size > 0
+    assert [p.stat().st_mtime_ns for p in frames] == written  # reused, not rendered again
+    (tmp_path / "f.gif").unlink()
+    again = CliRunner().invoke(app, args[:-2])  # auto exposure now: the view differs
+    assert again.exit_code == 2 and "rendered from other input, settings" in " ".join(
+        again.output.split()
+    )

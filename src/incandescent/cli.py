@@ -757,8 +757,9 @@ def simulate(
     scheduler: str = typer.Option(None, help="--render on an existing Dask cluster."),
     exposure: float = typer.Option(
         None,
-        help="--render with this fixed exposure (EV) [auto: from the middle frame]; with "
-        "--workers/--scheduler each frame then renders while the next is simulated.",
+        help="--render with this fixed exposure (EV) [auto: from the middle frame, after the "
+        "simulation]; each frame is then rendered as soon as it is written (with "
+        "--workers/--scheduler on the cluster, while the next is simulated).",
     ),
     overwrite: bool = typer.Option(False, help="Start again even if OUTPUT holds another run."),
 ) -> None:
@@ -782,7 +783,7 @@ def simulate(
             from incandescent.animation import plan_output
 
             plan_output(render_to, None, overwrite)
-        overlap = render_to is not None and exposure is not None and (workers or scheduler)
+        overlap = render_to is not None and exposure is not None
         with _simulation_progress(frames) as on_frame:
             if overlap:
                 run.simulate_and_render(settings, resolution, frames, output, render_to,

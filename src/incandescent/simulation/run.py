@@ -282,9 +282,10 @@ def simulate_and_render(
     scheduler: str | None = None,
     on_frame: Callable[[FrameReport], None] | None = None,
 ):
-    """Simulate and render at once: each frame, once written, is sent to the Dask cluster as a
-    render task (with a fixed ``exposure_ev``: auto exposure would need the middle frame first),
-    so rendering overlaps simulating; then the video is assembled from the frames."""
+    """Simulate and render at once: each frame, once written, is rendered (with a fixed
+    ``exposure_ev``: auto exposure would need the middle frame first) — as a task on the Dask
+    cluster of ``workers`` / ``scheduler``, overlapping the simulation, or here, in turn with it;
+    then the video is assembled from the frames."""
     from incandescent import api, cluster
     from incandescent.animation import (
         FramesFailed,
@@ -302,8 +303,6 @@ def simulate_and_render(
     paths = [frame_path(out_dir, i, suffix) for i in range(1, frames + 1)]
     describe = _describe(paths)
     with cluster.connect(workers, scheduler) as (client, threads):
-        if client is None:
-            raise ValueError("rendering while simulating needs --workers or --scheduler")
         view: dict = {}
         futures: dict = {}
 
@@ -316,9 +315,12 @@ def simulate_and_render(
             task = cluster.FrameTask(index, _frame_spec(report.path), api.Remap(), "dense", None,
                                      view["camera"], view["settings"], display, backend,
                                      png_path(folder, index), threads)  # fmt: skip
-            futures[index] = client.submit(
-                cluster.render_task, task, retries=cluster.RETRIES, pure=False
-            )
+            if client is None:  # in-process: render it now, before the next frame
+                futures[index] = _Done(task)
+            else:
+                futures[index] = client.submit(
+                    cluster.render_task, task, retries=cluster.RETRIES, pure=False
+                )
 
         simulate(settings, resolution, frames, out_dir, backend, suffix, overwrite, submit)
         failures, keys = {}, {}
@@ -333,3 +335,22 @@ def simulate_and_render(
         if failures:
             raise FramesFailed(failures)
     return assemble_video(folder, frames, video, settings.fps, overwrite)
+
+
+class _Done:
+    """A frame rendered in-process, answering like a Dask future (``result()``)."""
+
+    def __init__(self, task) -> None:
+        from incandescent import cluster
+
+        self.value: tuple | None = None
+        self.error: Exception | None = None
+        try:
+            self.value = cluster.render_task(task)
+        except (ValueError, OSError, RuntimeError) as error:
+            self.error = error
+
+    def result(self):
+        if self.error is not None:
+            raise self.error
+        return self.value
