@@ -194,6 +194,11 @@ def test_settings_reject_unknown_keys_and_impossible_values():
         FireSettings(t_ignition_K=2500.0)
     with pytest.raises(ValueError, match="unknown fire preset 'bonfire'"):
         preset("bonfire")
+    with pytest.raises(ValueError, match=r"^fire settings \(torch\): flame_sped_m_s: unknown key; "
+                       r"did you mean 'flame_speed_m_s'\?$"):  # fmt: skip
+        preset("torch", flame_sped_m_s=1.0)
+    with pytest.raises(ValueError, match=r"^fire settings \(candle\): temperatures must rise"):
+        preset("candle", t_ignition_K=3000.0)
     with pytest.raises(ValueError, match="greater than 0"):
         Source(radius_m=0.0)
 

@@ -7,9 +7,10 @@ fractions of the domain (0..1 along x, y, z; y is up).
 
 from __future__ import annotations
 
+import difflib
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 Fraction3 = tuple[float, float, float]
 
@@ -129,7 +130,27 @@ PRESETS: dict[str, FireSettings] = {
 
 
 def preset(name: str, **changes) -> FireSettings:
-    """A preset's settings with ``changes`` applied (validated)."""
+    """A preset's settings with ``changes`` applied (validated; a bad one is a one-line
+    ``ValueError`` naming the key)."""
     if name not in PRESETS:
         raise ValueError(f"unknown fire preset {name!r}; expected one of: {', '.join(PRESETS)}")
-    return FireSettings(**(PRESETS[name].model_dump() | changes))
+    try:
+        return FireSettings(**(PRESETS[name].model_dump() | changes))
+    except ValidationError as error:
+        raise ValueError(_one_line(error, f"fire settings ({name})")) from None
+
+
+def _one_line(error: ValidationError, source: str) -> str:
+    """The first problem of ``error`` as one line: the key, and what is wrong with it."""
+    problems = error.errors()
+    item = problems[0]
+    key = ".".join(str(part) for part in item["loc"])
+    if item["type"] == "extra_forbidden":
+        close = difflib.get_close_matches(key, list(FireSettings.model_fields), n=1)
+        problem = f"unknown key; did you mean {close[0]!r}?" if close else "unknown key"
+    elif item["type"] == "value_error":  # a model-level rule: its message says it all
+        problem = str(item["msg"]).removeprefix("Value error, ")
+    else:
+        problem = f"{item['msg']}; got {item.get('input')!r}"
+    more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+    return f"{source}: {key + ': ' if key else ''}{problem}{more}"
