@@ -259,3 +259,16 @@ def test_simulate_renders_each_frame_as_it_is_written_with_a_fixed_exposure(tmp_
     assert again.exit_code == 2 and "rendered from other input, settings" in " ".join(
         again.output.split()
     )
+
+
+def test_a_grid_bigger_than_memory_is_refused_before_any_work(tmp_path):
+    from typer.testing import CliRunner
+
+    from incandescent.cli import app
+
+    args = ["simulate", "explosion", "-o", str(tmp_path / "big"), "--resolution", "512",
+            "--max-memory", "1"]  # fmt: skip
+    result = CliRunner().invoke(app, args)
+    output = " ".join(result.output.split())
+    assert result.exit_code == 2 and "simulating a 512×512×512 grid needs about 24.0 GiB" in output
+    assert not (tmp_path / "big").exists()

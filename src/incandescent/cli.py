@@ -762,6 +762,7 @@ def simulate(
         "--workers/--scheduler on the cluster, while the next is simulated).",
     ),
     overwrite: bool = typer.Option(False, help="Start again even if OUTPUT holds another run."),
+    max_memory: float = OPT_MAX_MEMORY,
 ) -> None:
     """Simulate a fire (Nguyen, Fedkiw & Jensen 2002) into frames the renderer reads.
 
@@ -773,6 +774,7 @@ def simulate(
     from incandescent.simulation import settings as fire_settings
 
     with _guarded():
+        limits = _limits(max_memory, None)
         changes = _settings_changes(settings_file)
         if seed is not None:
             changes["seed"] = seed
@@ -788,10 +790,10 @@ def simulate(
             if overlap:
                 run.simulate_and_render(settings, resolution, frames, output, render_to,
                                         exposure, width, height, name, suffix, overwrite,
-                                        workers, scheduler, on_frame)  # fmt: skip
+                                        workers, scheduler, on_frame, limits)  # fmt: skip
             else:
                 run.simulate(settings, resolution, frames, output, name, suffix, overwrite,
-                             on_frame)  # fmt: skip
+                             on_frame, limits)  # fmt: skip
         if render_to is not None and not overlap:
             display = None
             if exposure is not None:

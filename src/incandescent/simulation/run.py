@@ -134,14 +134,17 @@ def simulate(
     suffix: str = ".npz",
     overwrite: bool = False,
     on_frame: Callable[[FrameReport], None] | None = None,
+    limits=None,
 ) -> list[FrameReport]:
     """Simulate ``frames`` frames into ``out_dir`` (see the module docstring); ``on_frame`` is
-    called after each frame is written (progress, rendering). Returns this run's frames."""
+    called after each frame is written (progress, rendering); ``limits`` (``budget.Limits``)
+    bound the memory, checked first. Returns this run's frames."""
     if suffix not in FRAME_FORMATS:
         raise ValueError(f"frame format must be one of {FRAME_FORMATS}; got {suffix!r}")
     if not 1 <= frames <= 100_000:
         raise ValueError(f"frames must be 1..100000; got {frames}")
     out_dir = Path(out_dir)
+    _check_memory(settings, resolution, backend, limits)
     out_dir.mkdir(parents=True, exist_ok=True)
     solver = FireSolver(settings, resolution, backend)
     identity = _identity(settings, resolution)
@@ -158,6 +161,26 @@ def simulate(
         if on_frame is not None:
             on_frame(report)
     return written
+
+
+#: Values held per cell during a step: 3 velocities and 4 scalars (with their advected copies),
+#: the multigrid's operators (7 per cell, ~1.15× over the levels), the CG vectors and the
+#: temporaries of advection and of a frame's NumPy copies — a generous bound.
+VALUES_PER_CELL = 48
+
+
+def _check_memory(settings: FireSettings, resolution: int, backend: str, limits=None) -> None:
+    """Refuse a grid the machine's memory cannot hold, before any work (``budget.Limits``)."""
+    from incandescent.budget import Limits
+    from incandescent.simulation.solver import grid_shape
+
+    shape, _ = grid_shape(settings, resolution)
+    cells = float(np.prod(shape))
+    value_bytes = 8.0 if backend == "reference" else 4.0
+    (limits or Limits()).check_memory(
+        cells * VALUES_PER_CELL * value_bytes,
+        f"simulating a {shape[0]}×{shape[1]}×{shape[2]} grid",
+    )
 
 
 def _write_frame(solver: FireSolver, state: FireState, path: Path) -> Path:
@@ -281,6 +304,7 @@ def simulate_and_render(
     workers: int | None = None,
     scheduler: str | None = None,
     on_frame: Callable[[FrameReport], None] | None = None,
+    limits=None,
 ):
     """Simulate and render at once: each frame, once written, is rendered (with a fixed
     ``exposure_ev``: auto exposure would need the middle frame first) — as a task on the Dask
@@ -322,7 +346,7 @@ def simulate_and_render(
                     cluster.render_task, task, retries=cluster.RETRIES, pure=False
                 )
 
-        simulate(settings, resolution, frames, out_dir, backend, suffix, overwrite, submit)
+        simulate(settings, resolution, frames, out_dir, backend, suffix, overwrite, submit, limits)
         failures, keys = {}, {}
         for index, future in futures.items():
             try:
