@@ -169,7 +169,7 @@ def test_a_worker_killed_mid_run_costs_no_frame(tmp_path, cluster):
 
 def test_simulated_frames_render_on_workers_while_the_next_is_simulated(tmp_path):
     """simulate --render --workers --exposure: each frame goes to the cluster once written; the
-    video has every frame, recorded so that a serial render of the same view reuses them all."""
+    video has every frame, recorded so that a later run with the same view reuses them all."""
     out, video = tmp_path / "fire", tmp_path / "fire.gif"
     args = ["simulate", "candle", "-o", out, "--resolution", 16, "--frames", 4, "--render",
             video, "--width", 24, "--height", 32, "--exposure", 0]  # fmt: skip
@@ -177,6 +177,12 @@ def test_simulated_frames_render_on_workers_while_the_next_is_simulated(tmp_path
     assert result.exit_code == 0, result.output
     with Image.open(video) as gif:
         assert gif.n_frames == 4
+    frames = sorted((tmp_path / "fire_frames").glob("frame_*.png"))
+    written = [p.stat().st_mtime_ns for p in frames]
     video.unlink()
-    serial = _Run(CliRunner().invoke(app, list(map(str, args))))
-    assert serial.exit_code == 0 and "(0 rendered, 4 reused)" in serial.output
+    serial = _Run(CliRunner().invoke(app, list(map(str, args))))  # in-process this time
+    assert serial.exit_code == 0 and video.stat().st_size > 0
+    assert [p.stat().st_mtime_ns for p in frames] == written  # recorded, so not rendered again
+    video.unlink()
+    auto = _Run(CliRunner().invoke(app, list(map(str, args[:-2]))))  # auto exposure: refused
+    assert auto.exit_code == 2 and "rendered from other input, settings" in auto.output
