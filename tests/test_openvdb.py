@@ -367,3 +367,27 @@ def test_a_volume_with_velocity_writes_a_vec3_grid_openvdb_reads_back(tmp_path):
     lo = np.asarray(box.index_min)
     hi = np.asarray(box.index_max) + 1
     np.testing.assert_array_equal(back, velocity[lo[0] : hi[0], lo[1] : hi[1], lo[2] : hi[2]])
+
+
+def test_a_blurred_cache_read_as_leaves_renders_the_dense_read_image():
+    """With a shutter, the leaf reader keeps the velocity of every leaf within a frame's travel
+    of the gas (from the file's largest speed), so sparse equals dense with motion blur too."""
+    from incandescent import api
+    from incandescent.config import VolumeSection
+    from incandescent.renderer import RenderSettings
+    from incandescent.volume.sparse import SparseVolume
+
+    spec = VolumeSection(path=FIRE_SMOKE, preset="blender", velocity_scale=0.05)
+    fps = 24.0
+    dense = api.volume_from_section(spec, api.Remap(), layout="dense", blur_fps=fps)
+    leaves = api.volume_from_section(spec, api.Remap(), layout="sparse", blur_fps=fps)
+    assert isinstance(leaves, SparseVolume) and leaves.velocity_m_s is not None
+    assert leaves.max_speed_m_s == pytest.approx(dense.max_speed_m_s)
+    camera = api.camera_from(dense)
+    s = RenderSettings(width=32, height=40, supersample=2, shutter=(-0.5, 0.5), fps=fps)
+    images = [api.render(v, camera, s.replace(layout=lay), "cpu")
+              for v, lay in ((dense, "dense"), (leaves, "sparse"))]  # fmt: skip
+    sharp = api.render(dense, camera, s.replace(shutter=None), "cpu")
+    assert np.abs(images[0].xyz - sharp.xyz).max() > 0.01 * sharp.xyz.max()  # it does blur
+    np.testing.assert_array_equal(images[1].xyz, images[0].xyz)
+    assert images[1].metadata["samples"] == images[0].metadata["samples"]

@@ -35,3 +35,6 @@ class GridSource:
     read_leaves: Callable[[Iterable[str], bool], Any] | None = None
     #: names → (voxels of their box, most active voxels of one grid), from metadata alone
     extent: Callable[[Iterable[str]], tuple[int, int]] | None = None
+    #: name → (the grid's largest value — a vector grid's largest magnitude —, its voxel side
+    #: in m), or None where unknown
+    value_max: Callable[[str], tuple[float, float] | None] | None = None

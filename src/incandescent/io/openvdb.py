@@ -183,11 +183,12 @@ def dense(path: Path, names: list[str], lo, hi) -> dict[str, np.ndarray]:
         return {name: np.load(files[name], allow_pickle=False) for name in names}
 
 
-def leaves(path: Path, names: list[str], lo, hi, z_up: bool):
+def leaves(path: Path, names: list[str], lo, hi, z_up: bool, rings: int = 0):
     """The box [lo, hi] as 8³ leaves (see ``openvdb_worker.leaves``): (coords (n, 3) int32,
     {name: (n, 8, 8, 8[, 3]) float32}, shape of the (turned) box)."""
     with tempfile.TemporaryDirectory(prefix="incandescent-vdb-") as folder:
-        request = _box_request("leaves", path, names, lo, hi, folder) | {"z_up": bool(z_up)}
+        extra = {"z_up": bool(z_up), "rings": int(rings)}
+        request = _box_request("leaves", path, names, lo, hi, folder) | extra
         reply = ask(path, request)
         coords = np.load(reply["coords"], allow_pickle=False)
         arrays = {name: np.load(reply["files"][name], allow_pickle=False) for name in names}

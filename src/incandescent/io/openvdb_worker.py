@@ -17,7 +17,8 @@ values, tiles expanded by OpenVDB (``copyToArray``); vec3 grids as (nx, ny, nz, 
 ``{"files": {name: file}, "coords": file, "shape": [nx, ny, nz]}``: the same box cut into 8³
 leaves from its low corner (after turning a z-up box y-up: (x, y, z) ↦ (x, z, ny − 1 − y)),
 keeping every leaf where any grid differs from its background and the 26 leaves around each
-(trilinear sampling reads one voxel into them); never the whole box at once — it is copied in
+(trilinear sampling reads one voxel into them; ``"rings"``: that many more rings, for motion
+blur); never the whole box at once — it is copied in
 slabs of 8 voxels along x, twice (find the leaves, then copy them).
 Every reply has ``"ok"``; failures carry ``"error"``.
 """
@@ -206,6 +207,8 @@ def leaves(request: dict) -> dict:
         for grid in grids:
             occupied[cx] |= _differs(grid, _slab(grid, lo, x0, shape, z_up))
     keep = _dilate(occupied)
+    for _ in range(int(request.get("rings", 0))):  # motion blur reads farther: more rings
+        keep = _dilate(keep)
     coords = np.argwhere(keep).astype(np.int32)
     files = {}
     for i, grid in enumerate(grids):

@@ -254,15 +254,18 @@ class LeafGrids:
     backgrounds: dict[str, float]
 
 
-def read_leaves(path: str | Path, names: Sequence[str], z_up: bool = False) -> LeafGrids:
+def read_leaves(
+    path: str | Path, names: Sequence[str], z_up: bool = False, rings: int = 0
+) -> LeafGrids:
     """Read grids as the occupied 8³ leaves of the union of their active boxes, and the leaves
-    around them, with OpenVDB — never densifying the box (a big sparse cache stays sparse)."""
+    around them (``rings`` more rings for motion blur), with OpenVDB — never densifying the box
+    (a big sparse cache stays sparse)."""
     path = _checked_path(path)
     names = _unique_names(path, names)
     chosen = _readable(path, names)
     box = _union_box(path, chosen, max_voxels=np.iinfo(np.int64).max)
     voxel, translation = _common_transform(path, chosen)
-    coords, arrays, shape = openvdb.leaves(path, names, *box, z_up)
+    coords, arrays, shape = openvdb.leaves(path, names, *box, z_up, rings)
     for name, values in arrays.items():
         _check_values(path, name, values)
     _, origin, _ = _dense_info(path, chosen[names[0]], box, voxel, translation)

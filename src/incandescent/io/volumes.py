@@ -293,16 +293,29 @@ def _vdb_source(path: Path, limits: Limits) -> GridSource:
         arrays = {name: grid.values for name, grid in dense.items()}
         return Grids(arrays, first.origin_m, first.voxel_size_m)
 
+    def read_leaves(names: Iterable[str], z_up: bool, rings: int = 0):
+        return vdb.read_leaves(path, needed(names), z_up, rings)
+
+    def extent(names: Iterable[str]) -> tuple[int, int]:
+        return vdb.box_and_active_voxels(path, needed(names))
+
     sparse = path.suffix.lower() == ".vdb" and openvdb.interpreter() is not None
     return GridSource(
         path,
         tuple(g.name for g in infos),
         read,
-        read_leaves=(lambda names, z_up: vdb.read_leaves(path, needed(names), z_up))
-        if sparse
-        else None,
-        extent=(lambda names: vdb.box_and_active_voxels(path, needed(names))) if sparse else None,
+        read_leaves=read_leaves if sparse else None,
+        extent=extent if sparse else None,
+        value_max=lambda name: _largest(vdb.list_grids(path), name),
     )
+
+
+def _largest(infos, name: str) -> tuple[float, float] | None:
+    """(largest value — a vector grid's largest magnitude —, voxel side in m) of grid ``name``."""
+    for info in infos:
+        if info.name == name and info.value_max is not None:
+            return float(info.value_max), float(info.voxel_size_m[0])
+    return None
 
 
 def _dense_box_voxels(path: Path, infos, names: list[str]) -> int:

@@ -69,7 +69,7 @@ def volume_from_section(
     if blur_fps is not None:
         roles["velocity"] = _velocity_grid(spec, source)
     if _reads_leaves(spec, source, roles, layout, limits):
-        return _sparse_volume(spec, source, roles, remap)
+        return _sparse_volume(spec, source, roles, remap, blur_fps)
     species_grids = {k: v for k, v in spec.species.items() if isinstance(v, str)}
     read = source.read(sorted({n for n in roles.values() if n} | set(species_grids.values())))
     grids = read.arrays
@@ -169,7 +169,7 @@ def _assembled(spec, source, roles, grids, by_role, remap, voxel, origin, box_si
 
 def _reads_leaves(spec, source, roles, layout: str, limits: Limits) -> bool:
     """Read sparse leaves? Only T and κ (and a preset's inputs) travel as leaves."""
-    extra = any(roles.get(r) for r in ("emission_scale", "sodium_fraction", "velocity"))
+    extra = any(roles.get(r) for r in ("emission_scale", "sodium_fraction"))
     extra = extra or bool(spec.species)
     if layout == "dense" or source.read_leaves is None or extra:
         return False
@@ -181,10 +181,12 @@ def _reads_leaves(spec, source, roles, layout: str, limits: Limits) -> bool:
     return active < AUTO_SPARSE_FRACTION * box or dense_bytes > limits.memory_bytes()
 
 
-def _sparse_volume(spec, source, roles, remap: Remap) -> SparseVolume:
-    """The roles' grids read as leaves, through the same preset and remap as a dense read."""
+def _sparse_volume(spec, source, roles, remap: Remap, blur_fps: float | None) -> SparseVolume:
+    """The roles' grids read as leaves, through the same preset and remap as a dense read; with
+    a velocity grid, the leaves within a frame's travel of the gas keep their velocity."""
     names = sorted({n for n in roles.values() if n})
-    leaves = source.read_leaves(names, _up_axis(spec) == "z")
+    rings = _blur_leaf_rings(spec, source, roles.get("velocity"), blur_fps)
+    leaves = source.read_leaves(names, _up_axis(spec) == "z", rings)
     count = len(leaves.coords)
     if count == 0:
         raise ValueError(f"{source.path}: grids {names} hold only their background values")
@@ -193,12 +195,16 @@ def _sparse_volume(spec, source, roles, remap: Remap) -> SparseVolume:
         n: a.reshape((count * LEAF, LEAF, LEAF) + a.shape[4:]) for n, a in leaves.arrays.items()
     }
     side = voxel * max(leaves.shape)
-    volume = _assembled(spec, source, roles, flat, _by_role(roles, flat), remap, voxel, None, side)
+    by_role = _by_role(roles, flat)
+    if by_role.get("velocity") is not None:
+        by_role["velocity"] = _velocity_m_s(spec, by_role["velocity"], voxel, blur_fps)
+    volume = _assembled(spec, source, roles, flat, by_role, remap, voxel, None, side)
     _check_vacuum_background(spec, source, roles, leaves, remap, voxel, side)
     origin = leaves.origin_m
     if _up_axis(spec) == "z":  # the box was turned by the reader: place it as _z_up_to_y_up does
         ny = leaves.shape[2] * voxel
         origin = (origin[0], origin[2], -(origin[1] + ny))
+    velocity = volume.velocity_m_s
     return SparseVolume(
         leaves.shape,
         leaves.coords,
@@ -208,7 +214,22 @@ def _sparse_volume(spec, source, roles, remap: Remap) -> SparseVolume:
         voxel,
         volume.absorption_source,
         volume.temperature_source,
+        None if velocity is None else velocity.reshape(count, LEAF, LEAF, LEAF, 3),
     )
+
+
+def _blur_leaf_rings(spec, source, velocity_grid: str | None, fps: float | None) -> int:
+    """Extra rings of leaves a blurred render may read: the fastest gas's travel in a frame (a
+    shutter lasts at most one frame either side), in leaves, from the file's largest speed."""
+    if velocity_grid is None or fps is None:
+        return 0
+    stats = source.value_max(velocity_grid) if source.value_max else None
+    if stats is None:
+        raise ValueError(f"{source.path}: the velocity grid's largest value is unknown")
+    largest, file_voxel = stats
+    voxel = spec.voxel_size_m or file_voxel
+    speed = float(np.abs(_velocity_m_s(spec, np.full((1, 1, 1, 3), largest), voxel, fps)).max())
+    return int(np.ceil(speed / fps / voxel / LEAF))
 
 
 def _by_role(roles, grids) -> dict[str, Any]:
