@@ -312,6 +312,7 @@ def simulate_and_render(
     then the video is assembled from the frames."""
     from incandescent import api, cluster
     from incandescent.animation import (
+        LOCK_NAME,
         FramesFailed,
         assemble_video,
         frame_key,
@@ -319,6 +320,7 @@ def simulate_and_render(
         record_frames,
     )
     from incandescent.animation import frame_path as png_path
+    from incandescent.io.atomic import exclusive_lock
 
     out_dir = Path(out_dir)
     folder, _ = plan_output(Path(video), None, overwrite)
@@ -326,7 +328,8 @@ def simulate_and_render(
     display = api.DisplaySettings(exposure_ev=exposure_ev, auto_exposure=False)
     paths = [frame_path(out_dir, i, suffix) for i in range(1, frames + 1)]
     describe = _describe(paths)
-    with cluster.connect(workers, scheduler) as (client, threads):
+    lock = exclusive_lock(folder / LOCK_NAME, str(video))  # one run writes these frames
+    with lock, cluster.connect(workers, scheduler) as (client, threads):
         view: dict = {}
         futures: dict = {}
 
