@@ -704,13 +704,7 @@ def animate(
                                      frame_path(frame_dir, index), threads)  # fmt: skip
 
         with cluster.connect(workers, scheduler) as (client, threads):
-            distribute = None
-            if client is not None:
-
-                def distribute(todo, on_done):
-                    tasks = [task(i, threads) for i in todo]
-                    return cluster.run_tasks(client, tasks, on_done)
-
+            distribute = cluster.distributor(client, lambda i: task(i, threads))
             try:
                 render_video(
                     volume_at,

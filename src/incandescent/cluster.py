@@ -130,3 +130,15 @@ def run_tasks(
         client.cancel(futures)
         raise
     return failures
+
+
+def distributor(client, task_of: Callable[[int], FrameTask]):
+    """For ``animation``'s ``distribute``: frames ``todo`` as tasks ``task_of(i)`` on
+    ``client``; None without a client (render in-process)."""
+    if client is None:
+        return None
+
+    def distribute(todo: list[int], on_done) -> dict[int, str]:
+        return run_tasks(client, [task_of(i) for i in todo], on_done)
+
+    return distribute

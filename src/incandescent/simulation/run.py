@@ -224,33 +224,15 @@ def render_frames(
     describe = _describe(paths)
 
     from incandescent import cluster
-    from incandescent.animation import frame_path as png_path
     from incandescent.animation import plan_output
 
     folder, _ = plan_output(Path(video), None, overwrite)
     with cluster.connect(workers, scheduler) as (client, threads):
-        distribute = None
-        if client is not None:
 
-            def distribute(todo, on_done):
-                tasks = [
-                    cluster.FrameTask(
-                        i,
-                        specs[i],
-                        api.Remap(),
-                        "dense",
-                        None,
-                        camera,
-                        settings,
-                        display,
-                        backend,
-                        png_path(folder, i),
-                        threads,
-                    )  # fmt: skip
-                    for i in todo
-                ]
-                return cluster.run_tasks(client, tasks, on_done)
+        def task_of(i: int) -> cluster.FrameTask:
+            return _fire_task(i, paths[i], camera, settings, display, backend, folder, threads)
 
+        distribute = cluster.distributor(client, task_of)
         return render_video(
             volume_at,
             len(paths),
@@ -272,6 +254,16 @@ def _frame_spec(path: Path):
     from incandescent.config import VolumeSection
 
     return VolumeSection(path=path, species={"CH": "CH", "C2": "C2"}, absorption=None)
+
+
+def _fire_task(index, path, camera, settings, display, backend, folder, threads):
+    """The render task of simulated frame ``path`` (PNG ``index`` in ``folder``)."""
+    from incandescent import cluster
+    from incandescent.animation import frame_path as png_path
+    from incandescent.volume import Remap
+
+    return cluster.FrameTask(index, _frame_spec(path), Remap(), "dense", None, camera, settings,
+                             display, backend, png_path(folder, index), threads)  # fmt: skip
 
 
 def _render_view(first: Path, width: int, height: int):
@@ -319,7 +311,6 @@ def simulate_and_render(
         plan_output,
         record_frames,
     )
-    from incandescent.animation import frame_path as png_path
     from incandescent.io.atomic import exclusive_lock
 
     out_dir = Path(out_dir)
@@ -339,9 +330,8 @@ def simulate_and_render(
             if not view:
                 view["camera"], view["settings"] = _render_view(report.path, width, height)
             index = report.frame - 1
-            task = cluster.FrameTask(index, _frame_spec(report.path), api.Remap(), "dense", None,
-                                     view["camera"], view["settings"], display, backend,
-                                     png_path(folder, index), threads)  # fmt: skip
+            task = _fire_task(index, report.path, view["camera"], view["settings"], display,
+                              backend, folder, threads)  # fmt: skip
             if client is None:  # in-process: render it now, before the next frame
                 futures[index] = _Done(task)
             else:
