@@ -77,6 +77,9 @@ class Ops:
     def sqrt(self, x):
         raise NotImplementedError
 
+    def cos(self, x):
+        raise NotImplementedError
+
 
 class NumpyOps(Ops):
     """The float64 reference."""
@@ -124,6 +127,9 @@ class NumpyOps(Ops):
 
     def sqrt(self, x):
         return np.sqrt(x)
+
+    def cos(self, x):
+        return np.cos(x)
 
 
 class DrJitOps(Ops):
@@ -189,6 +195,9 @@ class DrJitOps(Ops):
 
     def sqrt(self, x):
         return self.dr.sqrt(x)
+
+    def cos(self, x):
+        return self.dr.cos(x)
 
 
 def ops_for(backend: str) -> Ops:

@@ -263,7 +263,7 @@ class FireSolver:
         """δ_ε(φ) = (1 + cos(πφ/ε)) / 2ε for |φ| < ε, else 0 (1/cells)."""
         ops, eps = self.ops, FRONT_CELLS
         near = ops.select(ops.clip(phi, -eps, eps) == phi, 1.0, 0.0)
-        cosine = _cos(ops, math.pi * ops.clip(phi, -eps, eps) / eps)
+        cosine = ops.cos(math.pi * ops.clip(phi, -eps, eps) / eps)
         return near * (1.0 + cosine) / (2.0 * eps)
 
     def _cell_value_at_faces(self, q, axis: int):
@@ -317,13 +317,6 @@ class FireSolver:
         soot = soot + ops.select(sooting, step * s.soot_rate_per_s, 0.0)
         soot = ops.maximum(soot * ops.scalar(math.exp(-s.soot_decay_per_s * dt)), 0.0)
         return temperature, soot
-
-
-def _cos(ops, x):
-    """cos on either backend (NumPy or Dr.Jit)."""
-    if isinstance(x, np.ndarray):
-        return np.cos(x)
-    return ops.dr.cos(x)
 
 
 def divergence(solver: FireSolver, velocity):
