@@ -30,7 +30,8 @@ class Ops:
     def full(self, n: int, value: float) -> Any:
         raise NotImplementedError
 
-    def gather(self, source, index) -> Any:
+    def gather(self, source, index, mask=None) -> Any:
+        """source[index]; where ``mask`` is False, 0 (and the index is not read)."""
         raise NotImplementedError
 
     def select(self, mask, a, b) -> Any:
@@ -98,8 +99,10 @@ class NumpyOps(Ops):
     def full(self, n, value):
         return np.full(n, float(value))
 
-    def gather(self, source, index):
-        return source[index]
+    def gather(self, source, index, mask=None):
+        if mask is None:
+            return source[index]
+        return np.where(mask, source[np.where(mask, index, 0)], 0.0)
 
     def select(self, mask, a, b):
         return np.where(mask, a, b)
@@ -152,8 +155,9 @@ class DrJitOps(Ops):
     def full(self, n, value):
         return self.dr.full(self.m.Float, float(value), n)
 
-    def gather(self, source, index):
-        return self.dr.gather(type(source), source, self.m.UInt(index))
+    def gather(self, source, index, mask=None):
+        active = True if mask is None else mask
+        return self.dr.gather(type(source), source, self.m.UInt(index), active)
 
     def select(self, mask, a, b):
         return self.dr.select(mask, a, b)
