@@ -4,8 +4,9 @@
 
 Runs ``incandescent.simulate`` on the ``campfire`` preset (seed 0, cpu backend) and keeps the last
 frame's temperature, absorption and CH/C₂ fractions as float32 (the velocity is left out: the demo
-does not blur), compressed. Simulating takes about a minute here, too long for a first demo, so
-the frame ships with the package; this script says how it was made and remakes it.
+does not blur), compressed. Simulating takes ~6 s here (with Dr.Jit's kernel cache empty), most
+of a first demo's time again and more on a slower machine, so the frame ships with the package;
+this script says how it was made and remakes it.
 """
 
 from __future__ import annotations

@@ -17,6 +17,7 @@ iterations and the final relative residual are reported.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -43,7 +44,7 @@ class Level:
     factor of its operator (4 per level below the finest, the Galerkin product's)."""
 
     layout: Layout
-    code: object
+    code: Any  # an int array of the backend
     scale: float = 1.0
 
     def strides(self) -> tuple[int, int, int]:
@@ -88,12 +89,11 @@ def diagonal(ops, level: Level):
 
 def apply(ops, level: Level, x):
     """A x on ``level``: d x − scale · Σ x over the fluid neighbours (indices c ± stride)."""
-    cell, total = ops.arange(level.layout.size), None
+    cell, total = ops.arange(level.layout.size), 0.0
     for axis, stride in enumerate(level.strides()):
         for side, step in enumerate((-stride, stride)):
             connected = (level.code & (1 << (2 * axis + side))) != 0
-            value = ops.gather(x, cell + step, connected)
-            total = value if total is None else total + value
+            total = total + ops.gather(x, cell + step, connected)
     return diagonal(ops, level) * x - level.scale * total
 
 
@@ -119,7 +119,8 @@ def _jacobi(ops, level: Level, x, b, sweeps: int):
     """Damped Jacobi sweeps; x = None is x = 0, whose first sweep is ω b / d (no product)."""
     d = diagonal(ops, level)
     for _ in range(sweeps):
-        x = JACOBI_WEIGHT * b / d if x is None else x + JACOBI_WEIGHT * (b - apply(ops, level, x)) / d
+        correction = b if x is None else b - apply(ops, level, x)
+        x = JACOBI_WEIGHT * correction / d if x is None else x + JACOBI_WEIGHT * correction / d
     return x
 
 

@@ -170,19 +170,46 @@ class FireSolver:
     def _velocity_at(self, velocity, p):
         return [sample(self.ops, velocity[a], self.face[a], p) for a in range(3)]
 
-    def _advect(self, q, layout: Layout, points, velocity, dt, carried_by=None):
+    def _advect(self, q, layout: Layout, points, velocity, dt, carried_by=None, ambient=None):
         """q advected by ``velocity`` over dt: semi-Lagrangian, MacCormack-corrected if set;
-        ``carried_by``: where each sample takes its velocity from (default: where it is)."""
+        ``carried_by``: where each sample takes its velocity from (default: where it is);
+        ``ambient``: the value of air that flows in through an open side (default: the edge
+        value extended, right for velocities). MacCormack's correction needs the forward trace
+        inside the domain: where it leaves (the gas flowing out of the top or sides), the
+        semi-Lagrangian value stays — else the clamped return sample holds outflowing gas back."""
         ops = self.ops
         v = self._velocity_at(velocity, points if carried_by is None else carried_by)
         back = [points[a] - v[a] * dt for a in range(3)]
         if not self.settings.maccormack:
-            return sample(ops, q, layout, back)
+            return self._inflow(sample(ops, q, layout, back), back, ambient)
         forward, low, high = sample(ops, q, layout, back, with_range=True)
+        forward = self._inflow(forward, back, ambient)
         ahead = [points[a] + v[a] * dt for a in range(3)]
         returned = sample(ops, forward, layout, ahead)
-        corrected = forward + 0.5 * (q - returned)
-        return ops.clip(corrected, low, high)
+        corrected = ops.clip(forward + 0.5 * (q - returned), low, high)
+        outside = self._outside(ahead)
+        if outside is None:
+            return corrected
+        if ambient is not None:  # inflow: the ambient value is exact, no correction
+            outside = outside | self._outside(back)
+        return ops.select(outside, forward, corrected)
+
+    def _outside(self, p):
+        """Positions (cell units) beyond an open side of the domain (air, not a wall or floor)."""
+        out = None
+        for axis in range(3):
+            for side in (0, 1):
+                if not self.open_sides[2 * axis + side]:
+                    continue
+                beyond = p[axis] < 0.0 if side == 0 else p[axis] > float(self.shape[axis])
+                out = beyond if out is None else out | beyond
+        return out
+
+    def _inflow(self, value, back, ambient):
+        """``ambient`` where the backtrace comes from beyond an open side (air flowing in)."""
+        if ambient is None or self._outside(back) is None:
+            return value
+        return self.ops.select(self._outside(back), ambient, value)
 
     # --- one step --------------------------------------------------------------------------
     def step(self, state: FireState, dt: float) -> tuple[FireState, StepReport]:
@@ -192,11 +219,13 @@ class FireSolver:
             self._advect(u[a], self.face[a], self.face_points[a], u, step) for a in range(3)
         ]
         temperature, soot = (
-            self._advect(q, self.cell, self.centres, u, step)
-            for q in (state.temperature, state.soot)
+            self._advect(q, self.cell, self.centres, u, step, ambient=air)
+            for q, air in ((state.temperature, s.t_air_K), (state.soot, 0.0))
         )
         fuel_side = self._fuel_side(state.phi)
-        phi = self._advect(state.phi, self.cell, self.centres, u, step, carried_by=fuel_side)
+        phi = self._advect(
+            state.phi, self.cell, self.centres, u, step, carried_by=fuel_side, ambient=PHI_LIMIT
+        )
         ops.evaluate(*velocity, phi, temperature, soot)
         phi, velocity = self._sources(phi, velocity, state)
         speed = s.flame_speed_m_s / self.h
