@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from incandescent import _validate
 from incandescent.volume.macrocells import MacrocellGrid, build_macrocells
+from incandescent.volume.slabs import map_slabs
 
 #: Voxels at or above this temperature absorb under the default absorption, K.
 DEFAULT_ABSORPTION_MIN_K = 500.0
@@ -83,6 +84,13 @@ class Placed:
         return lo, lo + self.size_m
 
 
+def _positive_range(values: NDArray) -> tuple[float, float]:
+    """(smallest, largest) of the values > 0; (inf, 0) if there are none."""
+    peak = float(values.max(initial=0.0))
+    low = float(values.min(where=values > 0, initial=np.inf)) if peak > 0 else np.inf
+    return low, peak
+
+
 @dataclass(frozen=True, eq=False)
 class Volume(Placed):
     """Validated, placed grids ready to render. Build with :meth:`Volume.from_arrays`.
@@ -136,7 +144,10 @@ class Volume(Placed):
     def max_temperature_K(self) -> float:
         """Hottest voxel, K (computed once: the grids are read-only)."""
         if "max_temperature_K" not in self._cache:
-            self._cache["max_temperature_K"] = float(self.temperature_K.max())
+            t = self.temperature_K
+            self._cache["max_temperature_K"] = float(
+                max(map_slabs(lambda lo, hi: t[lo:hi].max(), t.shape[0], t.size))
+            )
         return self._cache["max_temperature_K"]
 
     @property
@@ -145,9 +156,11 @@ class Volume(Placed):
         with a cutoff), else None. The kernel then stores only T, its sign bit marking κ = 0."""
         if "two_valued_kappa" not in self._cache:
             kappa = self.absorption_per_m
-            peak = np.float32(kappa.max())
-            two = peak > 0 and not np.any((kappa != 0) & (kappa != peak))
-            self._cache["two_valued_kappa"] = float(peak) if two else None
+            ranges = map_slabs(
+                lambda lo, hi: _positive_range(kappa[lo:hi]), kappa.shape[0], kappa.size
+            )
+            low, peak = min(r[0] for r in ranges), max(r[1] for r in ranges)
+            self._cache["two_valued_kappa"] = float(peak) if 0 < low == peak else None
         return self._cache["two_valued_kappa"]
 
     def replace(self, **changes) -> Volume:

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from incandescent.volume.slabs import map_slabs
+
 
 @dataclass(frozen=True)
 class MacrocellGrid:
@@ -55,15 +57,29 @@ def _extended_block_max(grid: NDArray, axis: int, s: int) -> NDArray:
     return np.moveaxis(out, 0, axis)
 
 
+def _slab_maxima(grid: NDArray, s: int, lo: int, hi: int) -> NDArray:
+    """The extended block maxima of the cells whose voxels along x are lo..hi − 1 (lo a multiple
+    of s): along x first (the big pass), with the voxels just outside the slab, then y and z."""
+    n = grid.shape[0]
+    cells = _extended_block_max(np.asarray(grid[lo:hi], dtype=np.float32), 0, s)
+    if lo > 0:  # the last voxel of the previous slab
+        cells[0] = np.maximum(cells[0], grid[lo - 1])
+    if hi < n:  # the first voxel of the next slab
+        cells[-1] = np.maximum(cells[-1], grid[hi])
+    for axis in (1, 2):
+        cells = _extended_block_max(cells, axis, s)
+    return cells
+
+
 def build_macrocells(absorption_per_m: NDArray, cell_voxels: int = 8) -> MacrocellGrid:
-    """Per-cell maxima of κ over cells of ``cell_voxels``³ voxels plus a one-voxel border."""
+    """Per-cell maxima of κ over cells of ``cell_voxels``³ voxels plus a one-voxel border (slabs
+    of cells along x on every core, ``slabs``)."""
     if not isinstance(cell_voxels, (int, np.integer)) or not 1 <= cell_voxels <= 64:
         raise ValueError(f"macrocell size must be an integer in 1..64 voxels; got {cell_voxels!r}")
-    out = np.asarray(absorption_per_m, dtype=np.float32)
-    for axis in range(3):
-        out = _extended_block_max(out, axis, int(cell_voxels))
-    out = np.ascontiguousarray(out)
-    return MacrocellGrid(out, int(cell_voxels), empty_radius(out > 0))
+    grid, s = np.asarray(absorption_per_m), int(cell_voxels)
+    parts = map_slabs(lambda lo, hi: _slab_maxima(grid, s, lo, hi), grid.shape[0], grid.size, s)
+    out = np.ascontiguousarray(np.concatenate(parts, axis=0))
+    return MacrocellGrid(out, s, empty_radius(out > 0))
 
 
 def dilate_cells(mask: NDArray[np.bool_]) -> NDArray[np.bool_]:

@@ -35,6 +35,7 @@ from incandescent.renderer.backends.common import (
 )
 from incandescent.renderer.backends.jit import array_module, device_name, drjit_module
 from incandescent.renderer.rays import lane_order
+from incandescent.volume.slabs import map_slabs
 from incandescent.volume.sparse import SparseVolume
 
 
@@ -336,7 +337,11 @@ def _edge_pad(out: np.ndarray) -> np.ndarray:
 def _padded(grid: np.ndarray) -> np.ndarray:
     """The grid with one edge-replicated voxel on every side, flattened (C order)."""
     out = _padded_empty(grid.shape, grid.dtype)
-    out[1:-1, 1:-1, 1:-1] = grid
+
+    def copy(lo: int, hi: int) -> None:
+        out[1 + lo : 1 + hi, 1:-1, 1:-1] = grid[lo:hi]
+
+    map_slabs(copy, grid.shape[0], grid.size)
     return _edge_pad(out).ravel()
 
 
@@ -349,8 +354,12 @@ def _packed_medium(volume) -> np.ndarray:
     trilinear corner is then one 64-bit gather instead of two 32-bit ones (measured 1.6× faster
     gathers on AVX2)."""
     out = _padded_empty(volume.shape + (2,), "<f4")
-    out[1:-1, 1:-1, 1:-1, 0] = volume.absorption_per_m
-    out[1:-1, 1:-1, 1:-1, 1] = volume.temperature_K
+
+    def pack(lo: int, hi: int) -> None:
+        out[1 + lo : 1 + hi, 1:-1, 1:-1, 0] = volume.absorption_per_m[lo:hi]
+        out[1 + lo : 1 + hi, 1:-1, 1:-1, 1] = volume.temperature_K[lo:hi]
+
+    map_slabs(pack, volume.shape[0], int(np.prod(volume.shape)))
     return _edge_pad(out).view("<u8").reshape(-1)
 
 
@@ -358,10 +367,14 @@ def _signed_medium(volume) -> np.ndarray:
     """Padded T's float32 bits with the sign bit set where κ = 0 (two-valued κ): one 32-bit
     gather per trilinear corner gives T and the occupancy, half the memory of the packed pair."""
     out = _padded_empty(volume.shape, "<u4")
-    inner = out[1:-1, 1:-1, 1:-1]
-    vacuum = volume.absorption_per_m <= 0
-    np.left_shift(vacuum, 31, out=inner, dtype=np.uint32, casting="unsafe")
-    np.bitwise_or(inner, volume.temperature_K.view("<u4"), out=inner)
+
+    def sign(lo: int, hi: int) -> None:
+        inner = out[1 + lo : 1 + hi, 1:-1, 1:-1]
+        vacuum = volume.absorption_per_m[lo:hi] <= 0
+        np.left_shift(vacuum, 31, out=inner, dtype=np.uint32, casting="unsafe")
+        np.bitwise_or(inner, volume.temperature_K[lo:hi].view("<u4"), out=inner)
+
+    map_slabs(sign, volume.shape[0], int(np.prod(volume.shape)))
     return _edge_pad(out).ravel()
 
 

@@ -1,0 +1,74 @@
+"""Host passes split into slabs on threads (``volume.slabs``) give the serial results exactly."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from incandescent.volume import Volume, build_macrocells, slabs
+
+
+@pytest.fixture
+def three_threads(monkeypatch):
+    """Every grid split into 3 slabs on threads, however small."""
+    monkeypatch.setattr(slabs, "MIN_PARALLEL_VOXELS", 0)
+    monkeypatch.setattr(slabs, "workers", lambda: 3)
+
+
+@pytest.mark.parametrize(("n", "parts", "align"), [(17, 3, 8), (256, 2, 8), (5, 4, 1), (7, 3, 8)])
+def test_bounds_cover_the_axis_in_aligned_slabs(n, parts, align):
+    ranges = slabs.bounds(n, parts, align)
+    assert ranges[0][0] == 0 and ranges[-1][1] == n
+    assert all(hi == lo for (_, hi), (lo, _) in zip(ranges, ranges[1:], strict=False))
+    assert all(lo % align == 0 and hi > lo for lo, hi in ranges)
+    assert len(ranges) == min(parts, -(-n // align))
+
+
+def _brute_macrocells(kappa: np.ndarray, s: int) -> np.ndarray:
+    """Cell c: max over voxels c·s − 1 … (c + 1)·s on each axis, clamped to the grid."""
+    cells = [-(-n // s) for n in kappa.shape]
+    out = np.zeros(cells, dtype=np.float32)
+    for c in np.ndindex(*cells):
+        box = tuple(slice(max(i * s - 1, 0), (i + 1) * s + 1) for i in c)
+        out[c] = kappa[box].max()
+    return out
+
+
+@pytest.mark.parametrize("shape", [(17, 9, 23), (24, 8, 8), (3, 5, 4)])
+@pytest.mark.parametrize("s", [8, 4])
+def test_macrocells_in_slabs_are_the_definition(three_threads, shape, s):
+    rng = np.random.default_rng(sum(shape) + s)
+    kappa = np.where(rng.random(shape) > 0.85, rng.random(shape), 0.0).astype(np.float32)
+    cells = build_macrocells(kappa, s).max_absorption
+    np.testing.assert_array_equal(cells, _brute_macrocells(kappa, s))
+
+
+@pytest.mark.parametrize("kappa_values", [(0.0, 2.5), (0.0, 2.5, 1.0), (0.0,), (3.0,)])
+def test_volume_scans_in_slabs(three_threads, kappa_values):
+    """The hottest voxel and the two-valued κ test read slab by slab: the whole-grid answers."""
+    rng = np.random.default_rng(len(kappa_values))
+    kappa = rng.choice(np.array(kappa_values, dtype=np.float32), size=(11, 6, 7))
+    temperature = rng.uniform(300, 2500, size=(11, 6, 7)).astype(np.float32)
+    volume = Volume.from_arrays(temperature, kappa.copy())
+    volume = volume.replace()  # nothing known from construction: scanned
+    assert volume.max_temperature_K == float(temperature.max())
+    positive = np.unique(kappa[kappa > 0])
+    expected = float(positive[0]) if positive.size == 1 else None
+    assert volume.two_valued_absorption_per_m == expected
+
+
+def test_device_layouts_in_slabs_are_the_padded_grids(three_threads):
+    """The signed (T, κ = 0 bit), packed (κ, T) and plain padded grids built slab by slab equal
+    ``np.pad(mode="edge")`` of the grids."""
+    from incandescent.renderer.backends import march
+
+    rng = np.random.default_rng(7)
+    temperature = rng.uniform(300, 2500, size=(9, 5, 6)).astype(np.float32)
+    kappa = np.where(rng.random((9, 5, 6)) > 0.5, 1.5, 0.0).astype(np.float32)
+    volume = Volume.from_arrays(temperature, kappa)
+    pad_t, pad_k = (np.pad(g, 1, mode="edge") for g in (temperature, kappa))
+    signed = pad_t.view("<u4") | (pad_k <= 0).astype(np.uint32) << 31
+    np.testing.assert_array_equal(march._signed_medium(volume), signed.ravel())
+    packed = np.stack([pad_k, pad_t], axis=-1).view("<u8")
+    np.testing.assert_array_equal(march._packed_medium(volume), packed.ravel())
+    np.testing.assert_array_equal(march._padded(temperature), pad_t.ravel())
