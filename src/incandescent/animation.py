@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -308,18 +309,66 @@ def _reusable(frame_dir: Path, n_frames: int, key_of: Callable[[int], str], rere
 
 
 def _volume_stream(volumes: VolumeSource, n_frames: int, todo: set[int]) -> Iterator[tuple]:
-    """(index, volume) for the indices in ``todo``; an iterable is advanced through every frame."""
+    """(index, volume) for the indices in ``todo``; an iterable is advanced through every frame.
+    Each volume is read and prepared (``_prepare``) on a helper thread while the previous
+    frame renders (``_ahead``)."""
+    return _ahead(_volumes_in_order(volumes, n_frames, todo))
+
+
+def _volumes_in_order(volumes: VolumeSource, n_frames: int, todo: set[int]) -> Iterator[tuple]:
     if callable(volumes):
         for i in sorted(todo):
-            yield i, volumes(i)
+            yield i, _prepare(volumes(i))
         return
     count = 0
     for i, volume in zip(range(n_frames), volumes, strict=False):  # stop at n
         count += 1
         if i in todo:
-            yield i, volume
+            yield i, _prepare(volume)
     if count < n_frames:
         raise ValueError(f"volumes ran out after {count} frame(s); expected n_frames={n_frames}")
+
+
+def _prepare(volume):
+    """What a new dense volume costs before its first ray and is kept with it: the hottest
+    voxel, the two-valued κ test and the leaf-size macrocells (the layout choice and the
+    default skipping read them)."""
+    if isinstance(volume, Volume):
+        volume.max_temperature_K, volume.two_valued_absorption_per_m, volume.macrocells(8)
+    return volume
+
+
+_END = object()
+
+
+def _ahead(items: Iterator[Any]) -> Iterator[Any]:
+    """``items`` in order, each made on a helper thread while the caller uses the one before it;
+    an error is raised at its item's turn. The helper is a daemon: Ctrl-C or an early exit never
+    waits for a read in progress."""
+
+    def start() -> tuple[threading.Thread, dict]:
+        box: dict = {}
+
+        def make() -> None:
+            try:
+                box["item"] = next(items, _END)
+            except BaseException as error:  # handed to the caller at this item's turn
+                box["error"] = error
+
+        helper = threading.Thread(target=make, name="incandescent-read-ahead", daemon=True)
+        helper.start()
+        return helper, box
+
+    helper, box = start()
+    while True:
+        helper.join()
+        if "error" in box:
+            raise box["error"]
+        if box["item"] is _END:
+            return
+        item = box["item"]
+        helper, box = start()
+        yield item
 
 
 def _progress(enabled: bool, total: int, done: int):

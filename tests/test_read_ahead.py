@@ -1,0 +1,64 @@
+"""Sequences read ahead: frame n + 1 is read and prepared on a helper thread while frame n
+renders (``animation._ahead``) — in order, one ahead, errors at their turn, never waited for."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+
+from incandescent import animation
+
+
+def _wait_for(condition, seconds: float = 10.0) -> None:
+    deadline = time.monotonic() + seconds
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.001)
+
+
+def test_the_next_item_is_made_while_this_one_is_used_and_no_further():
+    made: list[int] = []
+
+    def items():
+        for i in range(4):
+            made.append(i)
+            yield i
+
+    seen = []
+    for item in animation._ahead(items()):
+        ahead = min(item + 2, 4)
+        _wait_for(lambda a=ahead: len(made) >= a)
+        assert made == list(range(ahead))  # this one and the next, never two ahead
+        seen.append(item)
+    assert seen == [0, 1, 2, 3]
+
+
+def test_an_error_is_raised_at_its_items_turn():
+    def items():
+        yield 0
+        yield 1
+        raise ValueError("frame 2: unreadable")
+
+    stream = animation._ahead(items())
+    assert [next(stream), next(stream)] == [0, 1]
+    with pytest.raises(ValueError, match="frame 2: unreadable"):
+        next(stream)
+
+
+def test_leaving_early_does_not_wait_for_a_read_in_progress():
+    release, started = threading.Event(), threading.Event()
+
+    def items():
+        yield 0
+        started.set()
+        release.wait(30)  # a slow read (a big file)
+        yield 1
+
+    stream = animation._ahead(items())
+    assert next(stream) == 0
+    assert started.wait(10)
+    began = time.monotonic()
+    stream.close()  # what Ctrl-C or a failed frame does to the loop
+    assert time.monotonic() - began < 0.5
+    release.set()
