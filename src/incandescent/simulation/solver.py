@@ -179,11 +179,13 @@ class FireSolver:
         semi-Lagrangian value stays — else the clamped return sample holds outflowing gas back."""
         ops = self.ops
         v = self._velocity_at(velocity, points if carried_by is None else carried_by)
+        ops.evaluate(*v)  # stored: else each kernel reading it gathers it again (24 gathers)
         back = [points[a] - v[a] * dt for a in range(3)]
         if not self.settings.maccormack:
             return self._inflow(sample(ops, q, layout, back), back, ambient)
         forward, low, high = sample(ops, q, layout, back, with_range=True)
         forward = self._inflow(forward, back, ambient)
+        ops.evaluate(forward, low, high)  # one kernel shares their 8 gathers
         ahead = [points[a] + v[a] * dt for a in range(3)]
         returned = sample(ops, forward, layout, ahead)
         corrected = ops.clip(forward + 0.5 * (q - returned), low, high)
