@@ -34,7 +34,7 @@ COARSEST_SWEEPS = 24
 #: A level's per-cell code: bit 2·axis + side (side 0: −, 1: +) set when that neighbour is a fluid
 #: cell (weight 1), and the diagonal count — fluid neighbours plus open-air faces, 0..6 — above
 #: DIAGONAL_SHIFT. One int32 per cell instead of a stored diagonal, six indices and six weights
-#: (52 bytes): the operator is memory-bound, and its neighbours' indices are c ± stride.
+#: (52 bytes) — the products read far less memory — with the neighbours' indices c ± stride.
 DIAGONAL_SHIFT = 8
 
 

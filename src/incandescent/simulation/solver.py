@@ -176,7 +176,8 @@ class FireSolver:
         ``ambient``: the value of air that flows in through an open side (default: the edge
         value extended, right for velocities). MacCormack's correction needs the forward trace
         inside the domain: where it leaves (the gas flowing out of the top or sides), the
-        semi-Lagrangian value stays — else the clamped return sample holds outflowing gas back."""
+        semi-Lagrangian value stays — else the clamped return sample holds outflowing gas back —
+        and so it does where ambient air flows in."""
         ops = self.ops
         v = self._velocity_at(velocity, points if carried_by is None else carried_by)
         ops.evaluate(*v)  # stored: else each kernel reading it gathers it again (24 gathers)
@@ -190,11 +191,12 @@ class FireSolver:
         returned = sample(ops, forward, layout, ahead)
         corrected = ops.clip(forward + 0.5 * (q - returned), low, high)
         outside = self._outside(ahead)
-        if outside is None:
-            return corrected
-        if ambient is not None:  # inflow: the ambient value is exact, no correction
-            outside = outside | self._outside(back)
-        return ops.select(outside, forward, corrected)
+        if outside is not None:
+            if ambient is not None:  # inflow: the ambient value is exact, no correction
+                outside = outside | self._outside(back)
+            corrected = ops.select(outside, forward, corrected)
+        ops.evaluate(corrected)  # now: the stored intermediates are freed field by field
+        return corrected
 
     def _outside(self, p):
         """Positions (cell units) beyond an open side of the domain (air, not a wall or floor)."""
