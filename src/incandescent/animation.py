@@ -34,6 +34,7 @@ from incandescent.io.output import write_json
 from incandescent.io.video import _check_fps, _check_frame, read_frames, write_gif, write_mp4
 from incandescent.renderer import RenderSettings, render
 from incandescent.volume import Volume
+from incandescent.volume.sparse import LEAF
 
 
 def fixed_display(
@@ -334,7 +335,8 @@ def _prepare(volume):
     voxel, the two-valued κ test and the leaf-size macrocells (the layout choice and the
     default skipping read them)."""
     if isinstance(volume, Volume):
-        volume.max_temperature_K, volume.two_valued_absorption_per_m, volume.macrocells(8)
+        _ = volume.max_temperature_K, volume.two_valued_absorption_per_m  # cached on the volume
+        volume.macrocells(LEAF)
     return volume
 
 

@@ -119,8 +119,10 @@ def _jacobi(ops, level: Level, x, b, sweeps: int):
     """Damped Jacobi sweeps; x = None is x = 0, whose first sweep is ω b / d (no product)."""
     d = diagonal(ops, level)
     for _ in range(sweeps):
-        correction = b if x is None else b - apply(ops, level, x)
-        x = JACOBI_WEIGHT * correction / d if x is None else x + JACOBI_WEIGHT * correction / d
+        if x is None:
+            x = JACOBI_WEIGHT * b / d
+        else:
+            x = x + JACOBI_WEIGHT * (b - apply(ops, level, x)) / d
     return x
 
 

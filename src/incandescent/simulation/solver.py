@@ -182,18 +182,19 @@ class FireSolver:
         v = self._velocity_at(velocity, points if carried_by is None else carried_by)
         ops.evaluate(*v)  # stored: else each kernel reading it gathers it again (24 gathers)
         back = [points[a] - v[a] * dt for a in range(3)]
+        entering = None if ambient is None else self._outside(back)  # air flowing in
         if not self.settings.maccormack:
-            return self._inflow(sample(ops, q, layout, back), back, ambient)
+            return _where(ops, entering, ambient, sample(ops, q, layout, back))
         forward, low, high = sample(ops, q, layout, back, with_range=True)
-        forward = self._inflow(forward, back, ambient)
+        forward = _where(ops, entering, ambient, forward)
         ops.evaluate(forward, low, high)  # one kernel shares their 8 gathers
         ahead = [points[a] + v[a] * dt for a in range(3)]
         returned = sample(ops, forward, layout, ahead)
         corrected = ops.clip(forward + 0.5 * (q - returned), low, high)
         outside = self._outside(ahead)
         if outside is not None:
-            if ambient is not None:  # inflow: the ambient value is exact, no correction
-                outside = outside | self._outside(back)
+            if entering is not None:  # the ambient value is exact there: no correction
+                outside = outside | entering
             corrected = ops.select(outside, forward, corrected)
         ops.evaluate(corrected)  # now: the stored intermediates are freed field by field
         return corrected
@@ -208,12 +209,6 @@ class FireSolver:
                 beyond = p[axis] < 0.0 if side == 0 else p[axis] > float(self.shape[axis])
                 out = beyond if out is None else out | beyond
         return out
-
-    def _inflow(self, value, back, ambient):
-        """``ambient`` where the backtrace comes from beyond an open side (air flowing in)."""
-        if ambient is None or self._outside(back) is None:
-            return value
-        return self.ops.select(self._outside(back), ambient, value)
 
     # --- one step --------------------------------------------------------------------------
     def step(self, state: FireState, dt: float) -> tuple[FireState, StepReport]:
@@ -350,6 +345,11 @@ class FireSolver:
         soot = soot + ops.select(sooting, step * s.soot_rate_per_s, 0.0)
         soot = ops.maximum(soot * ops.scalar(math.exp(-s.soot_decay_per_s * dt)), 0.0)
         return temperature, soot
+
+
+def _where(ops, mask, value, otherwise):
+    """``value`` where ``mask`` (None: nowhere), else ``otherwise``."""
+    return otherwise if mask is None else ops.select(mask, value, otherwise)
 
 
 def divergence(solver: FireSolver, velocity):
