@@ -9,8 +9,13 @@ from incandescent import scenes
 from incandescent.camera import Camera
 from incandescent.renderer import RenderSettings, render
 from incandescent.renderer.backends import BackendUnavailable, available_backends, resolve_backend
-from incandescent.renderer.backends.jit import cuda_problem
-from incandescent.renderer.backends.march import _packed_medium, _padded, _signed_medium
+from incandescent.renderer.backends.jit import array_module, cuda_problem
+from incandescent.renderer.backends.march import (
+    _on_device,
+    _packed_medium,
+    _padded,
+    _signed_medium,
+)
 from incandescent.volume import Remap, Volume, build_macrocells
 from incandescent.volume.macrocells import empty_radius
 
@@ -92,6 +97,25 @@ def test_device_grid_layouts_are_edge_padded_copies():
     signed = np.where(vol.absorption_per_m > 0, vol.temperature_K, -vol.temperature_K)
     padded = np.pad(signed.astype("<f4"), 1, mode="edge").view("<u4").ravel()
     np.testing.assert_array_equal(_signed_medium(vol), padded)
+
+
+@pytest.mark.parametrize("kind", ["cpu", "cuda"])
+def test_device_layouts_built_in_device_memory_equal_the_host_ones(kind):
+    """Built in place in Dr.Jit's buffer on the CPU (uploaded on CUDA), each layout holds exactly
+    the host pass's bits, a float64 grid converted to float32."""
+    if kind not in available_backends():
+        pytest.skip(f"backend {kind} unavailable")
+    m = array_module(kind)
+    rng = np.random.default_rng(2)
+    temp = rng.uniform(300.0, 2000.0, (6, 4, 5))
+    two = Volume.from_arrays(temp, absorption=np.where(temp > 900.0, 2.5, 0.0))
+    graded = Volume.from_arrays(temp, absorption=rng.uniform(0.0, 3.0, temp.shape))
+    for array_type, layout, host in (
+        (m.UInt, lambda e: _signed_medium(two, e), _signed_medium(two)),
+        (m.UInt64, lambda e: _packed_medium(graded, e), _packed_medium(graded)),
+        (m.Float, lambda e: _padded(temp, e, "<f4"), _padded(temp.astype(np.float32))),
+    ):
+        np.testing.assert_array_equal(np.asarray(_on_device(m, array_type, layout)), host)
 
 
 def test_empty_radius_is_the_chebyshev_distance_to_the_nearest_occupied_cell():

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from incandescent.volume import Volume, build_macrocells, slabs
+from incandescent.volume import grid as grid_module
 
 
 @pytest.fixture
@@ -55,6 +56,21 @@ def test_volume_scans_in_slabs(three_threads, kappa_values):
     positive = np.unique(kappa[kappa > 0])
     expected = float(positive[0]) if positive.size == 1 else None
     assert volume.two_valued_absorption_per_m == expected
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_positive_range_is_the_masked_minimum_and_the_maximum(monkeypatch, dtype):
+    """The scan over float32 bits in chunks (a chunk smaller than the grid here) equals
+    min(where > 0) and max, with zeros, −0, subnormals and no positive value at all."""
+    monkeypatch.setattr(grid_module, "_SCAN_CHUNK", 7)
+    rng = np.random.default_rng(3)
+    values = np.where(rng.random(50) > 0.5, rng.uniform(0.1, 9.0, 50), 0.0).astype(dtype)
+    values[[3, 11]] = -0.0
+    values[20] = np.finfo(dtype).smallest_subnormal * 3
+    expected = (float(values.min(where=values > 0, initial=np.inf)), float(values.max()))
+    assert grid_module._positive_range(values) == expected
+    assert grid_module._positive_range(np.zeros(9, dtype)) == (np.inf, 0.0)
+    assert grid_module._positive_range(np.full(9, -0.0, dtype)) == (np.inf, 0.0)
 
 
 def test_device_layouts_in_slabs_are_the_padded_grids(three_threads):

