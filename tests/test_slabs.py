@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import pytest
 
@@ -71,6 +73,32 @@ def test_positive_range_is_the_masked_minimum_and_the_maximum(monkeypatch, dtype
     assert grid_module._positive_range(values) == expected
     assert grid_module._positive_range(np.zeros(9, dtype)) == (np.inf, 0.0)
     assert grid_module._positive_range(np.full(9, -0.0, dtype)) == (np.inf, 0.0)
+
+
+def test_two_valued_scan_stops_at_a_graded_chunk(monkeypatch):
+    """A second positive κ ends the scan (and tells the other slabs); one κ₀ scans everything."""
+    monkeypatch.setattr(grid_module, "_SCAN_CHUNK", 4)
+    graded, two = threading.Event(), threading.Event()
+    values = np.array([0, 2, 0, 3] + [0, 0, 0, 0.5] * 3, dtype=np.float32)
+    assert grid_module._positive_range(values, graded) == (2.0, 3.0)  # the first chunk's
+    assert graded.is_set()
+    assert grid_module._positive_range(np.tile(values[:3], 5), two) == (2.0, 2.0)
+    assert not two.is_set()
+    assert grid_module._positive_range(values, two) == (2.0, 3.0) and two.is_set()
+
+
+def test_kappa_two_valued_in_each_slab_but_not_across_them_is_graded(three_threads):
+    kappa = np.zeros((12, 4, 4), dtype=np.float32)
+    kappa[:4, 0, 0], kappa[8:, 1, 1] = 2.5, 1.0
+    volume = Volume.from_arrays(np.full(kappa.shape, 1500.0), kappa).replace()
+    assert volume.two_valued_absorption_per_m is None
+    kappa[8:, 1, 1] = 2.5
+    assert (
+        Volume.from_arrays(np.full(kappa.shape, 1500.0), kappa)
+        .replace()
+        .two_valued_absorption_per_m
+        == 2.5
+    )
 
 
 def test_device_layouts_in_slabs_are_the_padded_grids(three_threads):

@@ -13,6 +13,8 @@ emit nor absorb. Negative kelvin after remapping is an error unless a cutoff (> 
 
 from __future__ import annotations
 
+import threading
+
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
@@ -88,23 +90,36 @@ class Placed:
 _SCAN_CHUNK = 1 << 16
 
 
-def _positive_range(values: NDArray) -> tuple[float, float]:
+def _positive_range(values: NDArray, graded: threading.Event | None = None) -> tuple[float, float]:
     """(smallest, largest) of the values > 0 (≥ 0 elsewhere, as validated); (inf, 0) if there are
-    none. For float32 one pass in cache-sized chunks over the bits, which order as the values do:
+    none. One pass in cache-sized chunks; for float32 over the bits, which order as the values do:
     bits − 1 wraps 0 (and −0) above every finite value, so its minimum + 1 is the smallest positive
-    value's bits (1.5× faster than a masked ``min(where=values > 0)``)."""
-    peak = float(values.max(initial=0.0))
-    if peak <= 0:
-        return np.inf, 0.0
-    if values.dtype != np.float32:
-        return float(values.min(where=values > 0, initial=np.inf)), peak
-    bits = np.ascontiguousarray(values).reshape(-1).view(np.uint32)
-    scratch, low = np.empty(min(bits.size, _SCAN_CHUNK), np.uint32), np.uint32(0xFFFFFFFF)
-    for start in range(0, bits.size, _SCAN_CHUNK):
-        chunk = bits[start : start + _SCAN_CHUNK]
-        below = np.subtract(chunk, np.uint32(1), out=scratch[: chunk.size])
-        low = min(low, below.min())
-    return float(np.array(low + np.uint32(1), np.uint32).view(np.float32)), peak
+    value's bits (1.5× faster than a masked ``min(where=values > 0)``).
+
+    With ``graded``, stops at the first chunk after two different positive values were seen here
+    (then sets it) or it was set elsewhere: a graded κ is known as such after one chunk.
+    """
+    flat = np.ascontiguousarray(values).reshape(-1)
+    low, peak = np.inf, 0.0
+    scratch = np.empty(min(flat.size, _SCAN_CHUNK), np.uint32)
+    for start in range(0, flat.size, _SCAN_CHUNK):
+        chunk = flat[start : start + _SCAN_CHUNK]
+        peak = max(peak, float(chunk.max()))
+        if peak > 0:
+            low = min(low, _smallest_positive(chunk, scratch))
+        if graded is not None and (graded.is_set() or low < peak):
+            graded.set()
+            break
+    return low, peak
+
+
+def _smallest_positive(chunk: NDArray, scratch: NDArray[np.uint32]) -> float:
+    """The smallest value > 0 of a chunk of values ≥ 0; inf if none (see ``_positive_range``)."""
+    if chunk.dtype != np.float32:
+        return float(chunk.min(where=chunk > 0, initial=np.inf))
+    below = np.subtract(chunk.view(np.uint32), np.uint32(1), out=scratch[: chunk.size])
+    bits = int(below.min()) + 1
+    return float(np.uint32(bits).view(np.float32)) if 0 < bits <= 0x7F800000 else np.inf
 
 
 @dataclass(frozen=True, eq=False)
@@ -171,12 +186,13 @@ class Volume(Placed):
         """κ₀ when every voxel's κ is 0 or one value κ₀ > 0 (the default absorption; a constant κ
         with a cutoff), else None. The kernel then stores only T, its sign bit marking κ = 0."""
         if "two_valued_kappa" not in self._cache:
-            kappa = self.absorption_per_m
+            kappa, graded = self.absorption_per_m, threading.Event()
             ranges = map_slabs(
-                lambda lo, hi: _positive_range(kappa[lo:hi]), kappa.shape[0], kappa.size
+                lambda lo, hi: _positive_range(kappa[lo:hi], graded), kappa.shape[0], kappa.size
             )
             low, peak = min(r[0] for r in ranges), max(r[1] for r in ranges)
-            self._cache["two_valued_kappa"] = float(peak) if 0 < low == peak else None
+            two_valued = 0 < low == peak and not graded.is_set()
+            self._cache["two_valued_kappa"] = float(peak) if two_valued else None
         return self._cache["two_valued_kappa"]
 
     def replace(self, **changes) -> Volume:
