@@ -176,3 +176,23 @@ def test_kernel_lane_order_is_a_permutation_of_the_camera_rays(width, height, s)
     assert np.all(np.diff(film_x[np.argsort(x, kind="stable")]) >= -1e-12)
     film_y = np.dot(dirs[index], up) / np.dot(dirs[index], cam.basis()[2])
     assert np.all(np.diff(film_y[np.argsort(y, kind="stable")]) <= 1e-12)
+
+
+@pytest.mark.parametrize(("width", "height", "s"), [(5, 3, 1), (37, 20, 2), (16, 16, 3)])
+def test_image_gathered_from_the_lanes_equals_the_scatter_into_camera_ray_order(width, height, s):
+    """The fast path of the kernels' output (one gather by ``image_lanes``) is the general one
+    (a scatter by ray index, then the sub-pixel reduction) to the bit, for mean and min."""
+    from types import SimpleNamespace
+
+    from incandescent.renderer import RenderSettings
+    from incandescent.renderer.api import _scatter_rays
+    from incandescent.renderer.rays import lane_order
+
+    inputs = SimpleNamespace(settings=RenderSettings(width=width, height=height, supersample=s))
+    index = lane_order(width, height, s)[2]
+    values = np.random.default_rng(s).random((index.size, 3))
+    for reduce in (np.mean, np.min):
+        fast = _scatter_rays(values, index, inputs, 0.0, reduce)
+        general = _scatter_rays(values, index.copy(), inputs, 0.0, reduce)
+        assert fast.shape == (height, width, 3)
+        np.testing.assert_array_equal(fast, general)

@@ -17,7 +17,7 @@ from incandescent.renderer.backends.bricks import brick_bytes
 from incandescent.renderer.backends.common import upper_samples_per_ray
 from incandescent.renderer.film import HDRImage, resolve_pixels
 from incandescent.renderer.layout import blur_rings, layout_volume
-from incandescent.renderer.rays import prepare_rays, ray_spec
+from incandescent.renderer.rays import image_lanes, lane_order, prepare_rays, ray_spec
 from incandescent.renderer.settings import RenderSettings
 from incandescent.spectra.lut import T_MAX_K
 from incandescent.volume import Volume
@@ -169,6 +169,10 @@ def _occupancy(models) -> tuple[str, Callable[[Volume], np.ndarray] | None]:
 def _scatter_rays(values: np.ndarray, index, inputs: MarchInputs, fill: float, reduce=np.mean):
     """Per-ray values (rows ``index`` of all camera rays, or all of them) → pixels."""
     s = inputs.settings
+    if index is lane_order(s.width, s.height, s.supersample)[2]:  # the Dr.Jit kernels' lanes
+        samples = values[image_lanes(s.width, s.height, s.supersample)]
+        samples = samples.reshape((s.height, s.width, s.supersample**2) + values.shape[1:])
+        return samples[:, :, 0] if s.supersample == 1 else reduce(samples, axis=2)
     full = values
     if index is not None:
         n_total = s.width * s.height * s.supersample**2

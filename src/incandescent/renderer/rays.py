@@ -183,3 +183,18 @@ def lane_order(width: int, height: int, supersample: int) -> tuple[NDArray, NDAr
     for a in out:
         a.setflags(write=False)  # cached and shared
     return out  # type: ignore[return-value]
+
+
+@functools.lru_cache(maxsize=8)
+def image_lanes(width: int, height: int, supersample: int) -> NDArray[np.int64]:
+    """For each sub-pixel sample of the (H, W) image, row by row with a pixel's s² samples
+    together (in camera-ray order), the lane of :func:`lane_order` that marched it: one gather puts
+    the kernels' output in image order (instead of a scatter into camera-ray order and a
+    transpose)."""
+    x, y, _ = (a.astype(np.int64) for a in lane_order(width, height, supersample))
+    s = supersample
+    position = ((y // s) * width + x // s) * (s * s) + (x % s) * s + y % s
+    out = np.empty(position.size, dtype=np.int64)
+    out[position] = np.arange(position.size)
+    out.setflags(write=False)  # cached and shared
+    return out

@@ -14,7 +14,6 @@ emit nor absorb. Negative kelvin after remapping is an error unless a cutoff (> 
 from __future__ import annotations
 
 import threading
-
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
@@ -86,7 +85,8 @@ class Placed:
         return lo, lo + self.size_m
 
 
-#: Values per chunk of the κ scan (1 MB: in cache; smaller chunks made two threads contend for the GIL).
+#: Values per chunk of the κ scan (1 MB, in cache; smaller chunks made the slab threads contend
+#: for the GIL).
 _SCAN_CHUNK = 1 << 18
 
 

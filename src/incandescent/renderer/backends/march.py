@@ -711,7 +711,8 @@ def march(inputs: MarchInputs, kind: str, progress=None) -> MarchResult:
     dr = drjit_module()
     spec = inputs.ray_spec
     assert spec is not None, "the Dr.Jit kernels generate their rays from a RaySpec"
-    order = tuple(_aligned(a) for a in lane_order(spec.width, spec.height, spec.supersample))
+    lanes = lane_order(spec.width, spec.height, spec.supersample)
+    order = tuple(_aligned(a) for a in lanes)
     parts, samples, march_s = [], 0, 0.0
     start, size = 0, _first_chunk(spec, inputs.settings)
     upper_per_ray = upper_samples_per_ray(spec.shape, inputs.settings.step_voxels)
@@ -730,7 +731,8 @@ def march(inputs: MarchInputs, kind: str, progress=None) -> MarchResult:
                 progress(start / spec.n_total)
     columns = parts[0] if len(parts) == 1 else [np.concatenate(c) for c in zip(*parts, strict=True)]
     xyz = np.stack(columns[:3], axis=1)
-    return MarchResult(xyz, columns[3], samples, march_s, device_name(kind), columns[4], order[2])
+    # the cached lane order itself as the ray index: the image is then gathered in one pass
+    return MarchResult(xyz, columns[3], samples, march_s, device_name(kind), columns[4], lanes[2])
 
 
 def _compile_seconds(entry: dict) -> float:
