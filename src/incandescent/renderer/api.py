@@ -170,7 +170,7 @@ def _scatter_rays(values: np.ndarray, index, inputs: MarchInputs, fill: float, r
     """Per-ray values (rows ``index`` of all camera rays, or all of them) → pixels."""
     s = inputs.settings
     if index is lane_order(s.width, s.height, s.supersample)[2]:  # the Dr.Jit kernels' lanes
-        samples = values[image_lanes(s.width, s.height, s.supersample)]
+        samples = np.take(values, image_lanes(s.width, s.height, s.supersample), axis=0)
         samples = samples.reshape((s.height, s.width, s.supersample**2) + values.shape[1:])
         return samples[:, :, 0] if s.supersample == 1 else reduce(samples, axis=2)
     full = values
