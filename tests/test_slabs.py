@@ -89,16 +89,13 @@ def test_two_valued_scan_stops_at_a_graded_chunk(monkeypatch):
 
 def test_kappa_two_valued_in_each_slab_but_not_across_them_is_graded(three_threads):
     kappa = np.zeros((12, 4, 4), dtype=np.float32)
-    kappa[:4, 0, 0], kappa[8:, 1, 1] = 2.5, 1.0
-    volume = Volume.from_arrays(np.full(kappa.shape, 1500.0), kappa).replace()
-    assert volume.two_valued_absorption_per_m is None
+    temperature = np.full(kappa.shape, 1500.0)
+    kappa[:4, 0, 0], kappa[8:, 1, 1] = 2.5, 1.0  # one κ in the first slab, another in the last
+    graded = Volume.from_arrays(temperature, kappa).replace()  # replace(): nothing known, scanned
+    assert graded.two_valued_absorption_per_m is None
     kappa[8:, 1, 1] = 2.5
-    assert (
-        Volume.from_arrays(np.full(kappa.shape, 1500.0), kappa)
-        .replace()
-        .two_valued_absorption_per_m
-        == 2.5
-    )
+    two_valued = Volume.from_arrays(temperature, kappa).replace()
+    assert two_valued.two_valued_absorption_per_m == 2.5
 
 
 def test_device_layouts_in_slabs_are_the_padded_grids(three_threads):
