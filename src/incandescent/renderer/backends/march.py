@@ -394,10 +394,6 @@ def _signed_medium(volume, empty=np.empty) -> np.ndarray:
     return _edge_pad(out).ravel()
 
 
-#: Bytes per element of the device array types a layout is built in.
-_ITEM_BYTES = {"UInt64": 8, "UInt": 4, "Float": 4}
-
-
 def _on_device(m, array_type, layout):
     """The device array of ``layout(empty)``, a host pass filling ``empty(shape, dtype)``.
 
@@ -412,7 +408,7 @@ def _on_device(m, array_type, layout):
 
     def empty(shape, dtype):
         nbytes = math.prod(shape) * np.dtype(dtype).itemsize
-        buffer = dr.empty(array_type, nbytes // _ITEM_BYTES[array_type.__name__])
+        buffer = dr.empty(array_type, nbytes // dr.itemsize_v(array_type))
         dr.eval(buffer)
         buffers.append(buffer)
         return buffer.numpy().view(dtype).reshape(shape)
