@@ -69,6 +69,80 @@ def test_values_below_cutoff_may_be_negative_and_become_vacuum():
     assert vol.absorption_per_m.tolist() == [[[0.0, 1.0]]]
 
 
+#: 136 × 128 × 128 float32: several slabs of x on every core and several chunks per slab.
+BIG = (136, 128, 128)
+
+
+@pytest.mark.parametrize(
+    ("role", "bad", "match"),
+    [
+        ("temperature", np.nan, r"finite; got nan at index \(135, 127, 127\)"),
+        ("temperature", np.inf, r"finite; got inf at index \(135, 127, 127\)"),
+        ("temperature", -np.inf, r"finite; got -inf at index \(135, 127, 127\)"),
+        ("temperature", -3.0, r"-3 K at voxel \(135, 127, 127\)"),
+        ("temperature", 2e5, r"2e\+05 K at voxel \(135, 127, 127\) is above .* ceiling"),
+        ("absorption", np.nan, r"absorption must be finite; got nan at index \(135, 127, 127\)"),
+        ("absorption", -2.0, r"absorption must be >= 0; got -2 at voxel \(135, 127, 127\)"),
+    ],
+)
+def test_float32_grids_are_checked_to_the_last_voxel(role, bad, match):
+    """The float32 grids are validated by chunked min/max (no full-size masks): a bad value in the
+    last chunk of the last slab is still found and named."""
+    grids = {
+        "temperature": np.full(BIG, 1500.0, np.float32),
+        "absorption": np.ones(BIG, np.float32),
+    }
+    grids[role][-1, -1, -1] = bad
+    with pytest.raises(ValueError, match=match):
+        Volume.from_arrays(grids["temperature"], absorption=grids["absorption"])
+
+
+def _fresh(values) -> np.ndarray:
+    return np.ascontiguousarray(values, dtype=np.float32).reshape(-1).copy().reshape(BIG)
+
+
+def test_copy_false_hands_over_fresh_float32_grids_and_copy_true_does_not():
+    temp = _fresh(
+        np.linspace(300.0, 2500.0, np.prod(BIG))
+    )  # a reshape of a fresh array, as np.load
+    kappa = _fresh(np.full(BIG, 2.0))
+    kept = Volume.from_arrays(temp, absorption=kappa, copy=False)
+    assert kept.temperature_K is temp and kept.absorption_per_m is kappa
+    assert not temp.flags.writeable and not kappa.flags.writeable
+    assert kept.max_temperature_K == float(temp.max())  # from the validation pass
+    temp2, kappa2 = _fresh(temp), _fresh(kappa)
+    copied = Volume.from_arrays(temp2, absorption=kappa2)
+    assert not np.shares_memory(copied.temperature_K, temp2) and temp2.flags.writeable
+    assert not np.shares_memory(copied.absorption_per_m, kappa2)
+    assert np.array_equal(copied.temperature_K, kept.temperature_K)
+
+
+def test_copy_false_copies_views_and_grids_a_cutoff_changes():
+    big = np.full((2,) + BIG, 1200.0, np.float32)
+    view = Volume.from_arrays(big[0], absorption=1.0, copy=False)  # part of a larger array
+    assert not np.shares_memory(view.temperature_K, big) and big.flags.writeable
+    temp = _fresh(np.full(BIG, 1200.0))
+    temp[0, 0, 0] = 200.0
+    cut = Volume.from_arrays(temp, remap=Remap(cutoff_K=400.0), copy=False)
+    assert not np.shares_memory(cut.temperature_K, temp) and temp[0, 0, 0] == 200.0
+    assert cut.temperature_K[0, 0, 0] == 0.0 and cut.max_temperature_K == 1200.0
+    all_cut = Volume.from_arrays(_fresh(np.full(BIG, 300.0)), remap=Remap(cutoff_K=400.0))
+    assert all_cut.max_temperature_K == 0.0 == float(all_cut.temperature_K.max())
+
+
+def test_npz_grids_are_handed_over_by_the_reader(tmp_path):
+    """``load_volume`` keeps the arrays NumPy read instead of copying them again."""
+    from incandescent.api import load_volume
+    from incandescent.volume.grid import _handed_over
+
+    temp = np.full(BIG, 1500.0, np.float32)
+    np.savez(tmp_path / "v.npz", temperature=temp, absorption=np.ones(BIG, np.float32))
+    with np.load(tmp_path / "v.npz") as data:
+        assert _handed_over(data["temperature"])
+    volume = load_volume(tmp_path / "v.npz")
+    assert np.array_equal(volume.temperature_K, temp) and not volume.temperature_K.flags.writeable
+
+
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [

@@ -164,6 +164,7 @@ def _assembled(spec, source, roles, grids, by_role, remap, voxel, origin, box_si
         temperature_source=temperature_note,
         box_side_m=box_side_m,
         velocity_m_s=by_role.get("velocity"),
+        copy=False,  # a reader's fresh arrays: handed over, not copied again
     )
 
 

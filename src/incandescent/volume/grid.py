@@ -250,32 +250,38 @@ class Volume(Placed):
         temperature_source: str | None = None,
         box_side_m: float | None = None,
         velocity_m_s: ArrayLike | None = None,
+        copy: bool = True,
     ) -> Volume:
         """Validate and place grids; ``source`` names the data's origin in error messages;
         ``absorption_source`` says where an absorption grid came from (metadata, ``--stats``);
         ``box_side_m``: the largest side of the box the default absorption is scaled to (default:
-        these grids'; leaves of a sparse volume pass their whole box's)."""
-        temp = _temperature(temperature, remap or Remap(), source)
-        _check_ceiling(temp, remap or Remap(), source)
-        vacuum = temp < np.float64((remap or Remap()).cutoff_K)  # compared in float64
-        temp[vacuum] = 0.0
+        these grids'; leaves of a sparse volume pass their whole box's). ``copy=False`` hands the
+        grids over: a float32, C-ordered temperature or absorption array that owns its data is
+        kept as it is and made read-only instead of copied (a file reader's fresh arrays) when
+        nothing in it has to change (no cutoff)."""
+        remap = remap or Remap()
+        adopt = not copy and remap.cutoff_K <= 0
+        temp, peak_K = _temperature(temperature, remap, source, adopt)
+        vacuum = temp < np.float64(remap.cutoff_K) if remap.cutoff_K > 0 else None  # in float64
+        if vacuum is not None:
+            temp[vacuum] = 0.0
         voxel = _voxel_size(voxel_size_m, temp.shape)
         side = voxel * max(temp.shape) if box_side_m is None else float(box_side_m)
-        kappa, how = _absorption(absorption, temp, side, source)
+        kappa, how = _absorption(absorption, temp, side, source, adopt)
         if absorption_source and how == "grid":
             how = f"grid ({absorption_source})"
-        kappa[vacuum] = 0.0
+        if vacuum is not None:
+            kappa[vacuum] = 0.0
         scale = _optional_grid(emission_scale, temp.shape, "emission_scale", source)
         origin = _origin(origin_m, temp.shape, voxel)
         sodium = _fraction_grid(sodium_fraction, temp.shape, "sodium_fraction", source)
         fractions = {
-            str(name): _f32(np.where(vacuum, 0.0, grid))  # vacuum voxels emit nothing
+            str(name): _f32(grid if vacuum is None else np.where(vacuum, 0.0, grid))  # vacuum
             for name, value in (species or {}).items()
             if (grid := _fraction_grid(value, temp.shape, f"species {name!r} fraction", source))
             is not None
         }
         rule = temperature_source or "given"
-        remap = remap or Remap()
         if remap != Remap():
             rule += f"; T = (raw − {remap.offset:g})·{remap.scale:g} K"
             rule += f", vacuum below {remap.cutoff_K:g} K" if remap.cutoff_K else ""
@@ -286,22 +292,79 @@ class Volume(Placed):
         if absorption is None or np.ndim(absorption) == 0:  # κ ∈ {0, κ₀} by construction
             peak = float(volume.absorption_per_m.max())  # no scan for other values needed
             volume._cache["two_valued_kappa"] = peak if peak > 0 else None
+        if peak_K is not None:  # the validation's maximum: no second pass for the hottest voxel
+            volume._cache["max_temperature_K"] = peak_K if peak_K >= remap.cutoff_K else 0.0
         return volume
 
 
-def _temperature(value: ArrayLike, remap: Remap, source: str) -> NDArray:
-    """Kelvin per voxel, a new writable array. float32 input without offset or scale stays
-    float32 — (raw − 0)·1 in float64, rounded back, is raw exactly — which saves two float64
-    copies of the grid; anything else is remapped in float64."""
+def _temperature(
+    value: ArrayLike, remap: Remap, source: str, adopt: bool = False
+) -> tuple[NDArray, float | None]:
+    """(kelvin per voxel, hottest voxel K or None), validated: finite, ≥ 0 unless a cutoff removes
+    it, below T_CEILING_K. The array is new and writable, or with ``adopt`` the input itself when
+    it can be handed over (see :func:`_handed_over`). float32 input without offset or scale stays
+    float32 — (raw − 0)·1 in float64, rounded back, is raw exactly — and is checked in one
+    chunked pass (its min and max); anything else is remapped in float64."""
     arr = np.asarray(value)
     if arr.dtype != np.float32 or remap.offset != 0 or remap.scale != 1:
-        return _remapped_temperature(_grid(value, source), remap, source)
+        temp = _remapped_temperature(_grid(value, source), remap, source)
+        _check_ceiling(temp, remap, source)
+        return temp, None
+    _check_shape(arr, source)
+    low, high = _finite_range(arr, source)
+    if low < 0:
+        _remapped_temperature(arr, remap, source, copy=False)  # names the voxel unless a cutoff
+    if high > T_CEILING_K:
+        _check_ceiling(arr, remap, source)  # raises, naming the voxel
+    return (arr if adopt and _handed_over(arr) else arr.copy()), high
+
+
+def _check_shape(arr: NDArray, name: str) -> None:
     if arr.ndim != 3:
-        raise ValueError(f"{source} must be a 3-D grid (nx, ny, nz); got shape {arr.shape}")
+        raise ValueError(f"{name} must be a 3-D grid (nx, ny, nz); got shape {arr.shape}")
     if arr.size == 0:
-        raise ValueError(f"{source} is empty: shape {arr.shape}")
-    _validate.finite(arr, source)
-    return _remapped_temperature(arr.copy(), remap, source, copy=False)
+        raise ValueError(f"{name} is empty: shape {arr.shape}")
+
+
+def _handed_over(arr: NDArray) -> bool:
+    """Can ``arr`` become a Volume's grid as it is? float32, C-ordered, writable, and owning its
+    memory or the whole-array reshape of an array that does (what ``np.load`` returns) — not a
+    view into something else (a file mapping, a library's buffer, a larger array)."""
+    flags, base = arr.flags, arr.base
+    whole = base is None or (
+        isinstance(base, np.ndarray) and base.base is None and base.nbytes == arr.nbytes
+    )
+    return arr.dtype == np.float32 and flags.c_contiguous and flags.writeable and whole
+
+
+def _value_range(values: NDArray) -> tuple[float, float]:
+    """(min, max) of a 3-D grid, NaN if it holds a NaN: one pass over cache-sized runs of x-layers
+    on every core, without the grid-sized boolean temporaries of ``isfinite``/``< 0`` masks (each
+    a fresh allocation: the page faults cost more than the comparisons)."""
+    layers = max(1, _SCAN_CHUNK // max(1, values[0].size))
+
+    def slab(lo: int, hi: int) -> tuple[float, float]:
+        low, high = np.inf, -np.inf
+        for a in range(lo, hi, layers):
+            chunk = values[a : min(a + layers, hi)]
+            c_low, c_high = float(chunk.min()), float(chunk.max())
+            if np.isnan(c_low) or np.isnan(c_high):
+                return np.nan, np.nan
+            low, high = min(low, c_low), max(high, c_high)
+        return low, high
+
+    ranges = map_slabs(slab, values.shape[0], values.size)
+    if any(np.isnan(r[0]) for r in ranges):
+        return np.nan, np.nan
+    return min(r[0] for r in ranges), max(r[1] for r in ranges)
+
+
+def _finite_range(arr: NDArray, name: str) -> tuple[float, float]:
+    """(min, max) of a grid that must be finite; NaN or ±inf raises, naming the first."""
+    low, high = _value_range(arr)
+    if not (np.isfinite(low) and np.isfinite(high)):
+        _validate.finite(arr, name)  # raises with the offending value and its index
+    return low, high
 
 
 def _grid(value: ArrayLike, name: str) -> NDArray:
@@ -310,11 +373,8 @@ def _grid(value: ArrayLike, name: str) -> NDArray:
     arr = np.asarray(value)
     if arr.dtype != np.float32:
         arr = _validate.real_array(arr, name)
-    arr = _validate.finite(arr, name)
-    if arr.ndim != 3:
-        raise ValueError(f"{name} must be a 3-D grid (nx, ny, nz); got shape {arr.shape}")
-    if arr.size == 0:
-        raise ValueError(f"{name} is empty: shape {arr.shape}")
+    _check_shape(arr, name)
+    _finite_range(arr, name)
     return arr
 
 
@@ -369,9 +429,12 @@ def _origin(origin_m: ArrayLike | None, shape: tuple[int, ...], voxel: float) ->
     return tuple(float(v) for v in origin)
 
 
-def _absorption(value, temp: NDArray, side_m: float, source: str) -> tuple[NDArray, str]:
-    """κ per voxel in 1/m, a new writable float32 array (values rounded once from float64);
-    the default is scaled to the box's largest side ``side_m``."""
+def _absorption(
+    value, temp: NDArray, side_m: float, source: str, adopt: bool = False
+) -> tuple[NDArray, str]:
+    """κ per voxel in 1/m, a new writable float32 array (values rounded once from float64), or
+    with ``adopt`` the given grid itself when it can be handed over; the default is scaled to the
+    box's largest side ``side_m``."""
     if value is None:
         kappa = DEFAULT_OPTICAL_DEPTH / side_m
         grid = np.where(temp >= DEFAULT_ABSORPTION_MIN_K, np.float32(kappa), np.float32(0.0))
@@ -379,7 +442,7 @@ def _absorption(value, temp: NDArray, side_m: float, source: str) -> tuple[NDArr
     if np.ndim(value) == 0:
         kappa = _nonnegative_scalar(value, "absorption (1/m)")
         return np.full(temp.shape, kappa, dtype=np.float32), f"constant {kappa:g} 1/m"
-    return _checked_grid(value, temp.shape, "absorption", source), "grid"
+    return _checked_grid(value, temp.shape, "absorption", source, adopt), "grid"
 
 
 def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] | None:
@@ -390,17 +453,25 @@ def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] 
     return _f32(_checked_grid(value, shape, name, source))
 
 
-def _checked_grid(value, shape, name: str, source: str) -> NDArray[np.float32]:
-    """A non-negative finite grid of ``shape`` as a new writable float32 array."""
-    grid = _grid(value, f"{source}: {name}")
-    if grid.shape != shape:
+def _checked_grid(value, shape, name: str, source: str, adopt: bool = False) -> NDArray[np.float32]:
+    """A non-negative finite grid of ``shape`` as a new writable float32 array (or with ``adopt``
+    the input itself, see :func:`_handed_over`)."""
+    where = f"{source}: {name}"
+    arr = np.asarray(value)
+    if arr.dtype != np.float32:
+        arr = _validate.real_array(arr, where)
+    _check_shape(arr, where)
+    if arr.shape != shape:
         raise ValueError(
-            f"{source}: {name} grid has shape {grid.shape}; expected the temperature's {shape}"
+            f"{source}: {name} grid has shape {arr.shape}; expected the temperature's {shape}"
         )
-    if (grid < 0).any():
-        index = tuple(int(i) for i in np.argwhere(grid < 0)[0])
-        raise ValueError(f"{source}: {name} must be >= 0; got {grid[index]:g} at voxel {index}")
-    return np.array(grid, dtype=np.float32)
+    low, _ = _finite_range(arr, where)
+    if low < 0:
+        index = tuple(int(i) for i in np.argwhere(arr < 0)[0])
+        raise ValueError(f"{source}: {name} must be >= 0; got {arr[index]:g} at voxel {index}")
+    if adopt and _handed_over(arr):
+        return arr
+    return np.array(arr, dtype=np.float32)
 
 
 def _velocity(value, shape, source: str) -> NDArray[np.float32] | None:
