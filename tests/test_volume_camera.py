@@ -252,6 +252,18 @@ def test_kernel_lane_order_is_a_permutation_of_the_camera_rays(width, height, s)
     assert np.all(np.diff(film_y[np.argsort(y, kind="stable")]) <= 1e-12)
 
 
+def test_lanes_go_in_z_order_within_16x16_tiles_down_the_columns():
+    from incandescent.renderer.rays import lane_order
+
+    x, y, _ = (a.astype(int) for a in lane_order(40, 35, 1))  # 3 × 3 tiles, partial at the edges
+    first = set(zip(x[:256], y[:256], strict=True))
+    assert first == {(i, j) for i in range(16) for j in range(16)}  # one whole tile
+    assert set(zip(x[:8], y[:8], strict=True)) == {(i, j) for i in range(4) for j in range(2)}
+    assert (x[256], y[256]) == (0, 16)  # the next tile is the one below
+    third = slice(512, 512 + 16 * 3)  # the bottom tile of the first column: rows 32..34 only
+    assert set(y[third]) == {32, 33, 34} and set(x[third]) == set(range(16))
+
+
 @pytest.mark.parametrize(("width", "height", "s"), [(5, 3, 1), (37, 20, 2), (16, 16, 3)])
 def test_image_gathered_from_the_lanes_equals_the_scatter_into_camera_ray_order(width, height, s):
     """The fast path of the kernels' output (one gather by ``image_lanes``) is the general one

@@ -170,19 +170,25 @@ def lane_order(width: int, height: int, supersample: int) -> tuple[NDArray, NDAr
     s = supersample
     w, h = width * s, height * s
     tiles_x, tiles_y = -(-w // TILE), -(-h // TILE)
-    lane = np.arange(tiles_x * tiles_y * TILE * TILE, dtype=np.int64)
-    tile, within = lane // (TILE * TILE), lane % (TILE * TILE)
-    mx, my = _morton_decode(within)
-    x = (tile // tiles_y) * TILE + mx
-    y = (tile % tiles_y) * TILE + my
-    keep = (x < w) & (y < h)
-    x, y = x[keep], y[keep]
-    col, sx, row, sy = x // s, x % s, y // s, y % s
-    index = ((col * height + row) * s + sx) * s + sy
-    out = tuple(a.astype(np.uint32) for a in (x, y, index))
+    mx, my = _morton_decode(np.arange(TILE * TILE, dtype=np.uint32))  # one tile's lanes
+    # tile t = i·tiles_y + j (down the columns) holds the lanes t·256 + (its Z-order in the tile)
+    x = (np.arange(tiles_x, dtype=np.uint32)[:, None, None] * TILE + mx) + np.zeros(
+        (1, tiles_y, 1), np.uint32
+    )
+    y = np.arange(tiles_y, dtype=np.uint32)[None, :, None] * TILE + my + np.zeros_like(x)
+    x, y = x.reshape(-1), y.reshape(-1)
+    if w % TILE or h % TILE:
+        keep = (x < w) & (y < h)
+        x, y = x[keep], y[keep]
+    if s == 1:
+        index = x * np.uint32(height) + y
+    else:
+        col, sx, row, sy = x // s, x % s, y // s, y % s
+        index = ((col * np.uint32(height) + row) * s + sx) * s + sy
+    out = (x, y, index.astype(np.uint32, copy=False))
     for a in out:
         a.setflags(write=False)  # cached and shared
-    return out  # type: ignore[return-value]
+    return out
 
 
 @functools.lru_cache(maxsize=8)
