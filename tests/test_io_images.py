@@ -80,6 +80,28 @@ def test_exr_round_trip_values_metadata_extra(tmp_path):
     assert _listing(tmp_path) == ["beauty.exr"]  # no temporary file left behind
 
 
+def test_exr_compressed_on_every_core_is_the_same_file(tmp_path):
+    """write_exr starts OpenEXR's worker threads (the binding starts with none); the blocks it
+    compresses in parallel make the same file as one thread does."""
+    import OpenEXR
+
+    from incandescent.volume.slabs import workers
+
+    rgb = np.random.default_rng(3).random((96, 64, 3), dtype=np.float32) * 4.0
+    before = OpenEXR.global_thread_count()
+    try:
+        OpenEXR.set_global_thread_count(0)
+        write_exr(tmp_path / "threads.exr", rgb)
+        assert OpenEXR.global_thread_count() == workers()
+        OpenEXR.set_global_thread_count(1)  # a count set before is kept
+        write_exr(tmp_path / "one.exr", rgb)
+        assert OpenEXR.global_thread_count() == 1
+    finally:
+        OpenEXR.set_global_thread_count(before)
+    assert (tmp_path / "threads.exr").read_bytes() == (tmp_path / "one.exr").read_bytes()
+    assert np.array_equal(read_exr(tmp_path / "threads.exr")[0], rgb)
+
+
 def test_exr_refuses_overwrite_then_allows(tmp_path):
     path = tmp_path / "a.exr"
     write_exr(path, np.zeros((2, 2, 3)))
