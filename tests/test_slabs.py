@@ -104,8 +104,8 @@ def test_device_layouts_in_slabs_are_the_padded_grids(three_threads):
     from incandescent.renderer.backends import march
 
     rng = np.random.default_rng(7)
-    temperature = rng.uniform(300, 2500, size=(9, 5, 6)).astype(np.float32)
-    kappa = np.where(rng.random((9, 5, 6)) > 0.5, 1.5, 0.0).astype(np.float32)
+    temperature = rng.uniform(300, 2500, size=(14, 5, 6)).astype(np.float32)
+    kappa = np.where(rng.random((14, 5, 6)) > 0.5, 1.5, 0.0).astype(np.float32)
     volume = Volume.from_arrays(temperature, kappa)
     pad_t, pad_k = (np.pad(g, 1, mode="edge") for g in (temperature, kappa))
     signed = pad_t.view("<u4") | (pad_k <= 0).astype(np.uint32) << 31

@@ -355,6 +355,9 @@ _DEVICE_GRIDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 #: x-layers the packed layout is written in at a time: T's strided write then finds the lines κ's
 #: wrote in cache.
 LAYERS = 2
+#: x-layers the signed layout is written in at a time (measured at 256³: 2, 4 and 8 layers
+#: 14.7, 14.4 and 15.0 ms against 18.5 ms for whole slabs).
+SIGN_LAYERS = 4
 
 
 def _layers(lo: int, hi: int) -> list[tuple[int, int]]:
@@ -381,14 +384,20 @@ def _packed_medium(volume, empty=np.empty) -> np.ndarray:
 
 def _signed_medium(volume, empty=np.empty) -> np.ndarray:
     """Padded T's float32 bits with the sign bit set where κ = 0 (two-valued κ): one 32-bit
-    gather per trilinear corner gives T and the occupancy, half the memory of the packed pair."""
+    gather per trilinear corner gives T and the occupancy, half the memory of the packed pair.
+    Written SIGN_LAYERS x-layers at a time through one small mask buffer per slab, which stays in
+    cache (a grid-sized mask was a fresh allocation per volume: 18.5 → 14.4 ms at 256³)."""
     out = _padded_empty(volume.shape, "<u4", empty)
+    temp, kappa = volume.temperature_K, volume.absorption_per_m
 
     def sign(lo: int, hi: int) -> None:
-        inner = out[1 + lo : 1 + hi, 1:-1, 1:-1]
-        vacuum = volume.absorption_per_m[lo:hi] <= 0
-        np.left_shift(vacuum, 31, out=inner, dtype=np.uint32, casting="unsafe")
-        np.bitwise_or(inner, volume.temperature_K[lo:hi].view("<u4"), out=inner)
+        vacuum = np.empty((SIGN_LAYERS,) + volume.shape[1:], dtype=bool)
+        for a in range(lo, hi, SIGN_LAYERS):
+            b = min(a + SIGN_LAYERS, hi)
+            inner = out[1 + a : 1 + b, 1:-1, 1:-1]
+            mask = np.less_equal(kappa[a:b], 0, out=vacuum[: b - a])
+            np.left_shift(mask, 31, out=inner, dtype=np.uint32, casting="unsafe")
+            np.bitwise_or(inner, temp[a:b].view("<u4"), out=inner)
 
     map_slabs(sign, volume.shape[0], int(np.prod(volume.shape)))
     return _edge_pad(out).ravel()
