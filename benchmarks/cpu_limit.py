@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from incandescent.api import camera_from
+from incandescent.benchmark import cpu_description, git_commit
 from incandescent.emission import models_for
 from incandescent.renderer import RenderSettings, render
 from incandescent.renderer.rays import ray_spec
@@ -150,6 +151,8 @@ def summarise(runs: dict, a) -> dict:
     cli_wall, cli_march, version = (med(r[i] for r in runs["cli"]) for i in range(3))
     return {
         "scene": f"soot_plume({a.size}) at {RESOLUTION}², step {a.step}, the CLI's default camera",
+        "cpu": cpu_description(),
+        "commit": git_commit(),
         "rounds": a.rounds,
         "seconds": {
             "ref_march": ref,

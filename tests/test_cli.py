@@ -188,6 +188,17 @@ def test_bench_json_reports_every_case():
     assert {"cpu, all threads", "cpu, 1 thread", "reference (NumPy float64)"} <= cases
     for r in report["scenes"][0]["results"]:
         assert r["samples"] > 0 and r["ms_per_frame"] > 0 and r["samples_per_s"] > 0
+    assert "cores" in report["cpu"]  # the CPU the figures belong to
+
+
+def test_cpu_description_names_model_cores_and_widest_simd():
+    from incandescent.benchmark import cpu_description
+    from incandescent.volume.slabs import workers
+
+    zen3 = "model name\t: AMD EPYC 7B13\ncpu family\t: 25\nmodel\t\t: 1\nflags\t\t: fpu avx2 fma\n"
+    text = cpu_description(zen3)
+    assert text == f"AMD EPYC 7B13 (family 25 model 1), {workers()} cores, AVX2"
+    assert cpu_description(zen3.replace("avx2", "avx2 avx512f")).endswith("AVX-512")
 
 
 def test_help_documents_render_flags():

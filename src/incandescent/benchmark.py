@@ -15,6 +15,7 @@ import statistics
 import subprocess
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 from incandescent._version import __version__
 from incandescent.camera import default_camera
@@ -22,6 +23,7 @@ from incandescent.renderer import RenderSettings, render
 from incandescent.renderer.backends import available_backends
 from incandescent.renderer.backends.jit import drjit_module
 from incandescent.scenes import SCENES
+from incandescent.volume.slabs import workers
 
 
 @dataclass(frozen=True)
@@ -148,6 +150,26 @@ def git_commit() -> str:
         return "unknown"
 
 
+def cpu_description(cpuinfo: str | None = None) -> str:
+    """The CPU the figures were measured on — model, family/model numbers, cores this process
+    may use, widest SIMD — from ``/proc/cpuinfo`` (Linux), else the platform's processor name.
+    Timings move with it: these VMs have been Zen 3 (AVX2) and Zen 4 (AVX-512) under one name."""
+    if cpuinfo is None:
+        try:
+            cpuinfo = Path("/proc/cpuinfo").read_text()
+        except OSError:
+            return platform.processor() or platform.machine()
+    fields: dict[str, str] = {}
+    for line in cpuinfo.splitlines():
+        key, _, value = line.partition(":")
+        fields.setdefault(key.strip(), value.strip())
+    flags = set(fields.get("flags", "").split())
+    simd = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "no AVX2"
+    name = fields.get("model name", platform.processor() or platform.machine())
+    family = f"family {fields.get('cpu family', '?')} model {fields.get('model', '?')}"
+    return f"{name} ({family}), {workers()} cores, {simd}"
+
+
 def run(
     scene_names: list[str],
     size: int = 256,
@@ -170,6 +192,7 @@ def run(
         "drjit": dr.__version__,
         "python": platform.python_version(),
         "machine": platform.processor() or platform.machine(),
+        "cpu": cpu_description(),
         "commit": git_commit(),
         "scenes": [
             _scene_report(s, size, resolution, repeat, reference, progress, cold)
