@@ -79,8 +79,16 @@ def test_two_valued_absorption_is_detected():
     assert scenes.soot_plume(16).two_valued_absorption_per_m is None
     all_vacuum = Volume.from_arrays(temp, absorption=2.0, remap=Remap(cutoff_K=2000.0))
     assert all_vacuum.two_valued_absorption_per_m is None
-    # what from_arrays knows from how κ was made equals a scan of the grid (replace() forgets)
-    for vol in (Volume.from_arrays(temp), Volume.from_arrays(temp, absorption=2.0), all_vacuum):
+    # what from_arrays knows from how κ was made equals a scan of the grid (replace() forgets);
+    # float32 grids take it from the validation's hottest voxel, others from κ's maximum
+    made = [Volume.from_arrays(temp), Volume.from_arrays(temp, absorption=2.0), all_vacuum]
+    for t in (temp.astype(np.float32), np.full((4, 4, 4), 499.5, np.float32)):
+        for kwargs in ({}, {"absorption": 0.3}, {"absorption": 0.0}):
+            made += [
+                Volume.from_arrays(t, **kwargs, remap=Remap(cutoff_K=c)) for c in (0, 1e3, 2e3)
+            ]
+    assert sum(v.two_valued_absorption_per_m is None for v in made) >= 6  # both answers occur
+    for vol in made:
         assert vol.replace().two_valued_absorption_per_m == vol.two_valued_absorption_per_m
 
 

@@ -267,7 +267,7 @@ class Volume(Placed):
             temp[vacuum] = 0.0
         voxel = _voxel_size(voxel_size_m, temp.shape)
         side = voxel * max(temp.shape) if box_side_m is None else float(box_side_m)
-        kappa, how = _absorption(absorption, temp, side, source, adopt)
+        kappa, how, kappa0 = _absorption(absorption, temp, side, source, adopt)
         if absorption_source and how == "grid":
             how = f"grid ({absorption_source})"
         if vacuum is not None:
@@ -289,9 +289,9 @@ class Volume(Placed):
         volume = cls(
             _f32(temp), _f32(kappa), scale, origin, voxel, how, sodium, fractions, rule, velocity
         )
-        if absorption is None or np.ndim(absorption) == 0:  # κ ∈ {0, κ₀} by construction
-            peak = float(volume.absorption_per_m.max())  # no scan for other values needed
-            volume._cache["two_valued_kappa"] = peak if peak > 0 else None
+        if kappa0 is not None:  # κ ∈ {0, κ₀} by construction: no scan for other values needed
+            min_K = max(remap.cutoff_K, DEFAULT_ABSORPTION_MIN_K if absorption is None else 0.0)
+            volume._cache["two_valued_kappa"] = _made_peak(volume, kappa0, peak_K, min_K)
         if peak_K is not None:  # the validation's maximum: no second pass for the hottest voxel
             volume._cache["max_temperature_K"] = peak_K if peak_K >= remap.cutoff_K else 0.0
         return volume
@@ -431,18 +431,30 @@ def _origin(origin_m: ArrayLike | None, shape: tuple[int, ...], voxel: float) ->
 
 def _absorption(
     value, temp: NDArray, side_m: float, source: str, adopt: bool = False
-) -> tuple[NDArray, str]:
-    """κ per voxel in 1/m, a new writable float32 array (values rounded once from float64), or
-    with ``adopt`` the given grid itself when it can be handed over; the default is scaled to the
-    box's largest side ``side_m``."""
+) -> tuple[NDArray, str, float | None]:
+    """(κ per voxel in 1/m, how it was given, κ₀ when it was made as κ₀ or 0 per voxel). κ is a
+    new writable float32 array (values rounded once from float64), or with ``adopt`` the given
+    grid itself when it can be handed over; the default is scaled to the box's largest side
+    ``side_m``."""
     if value is None:
-        kappa = DEFAULT_OPTICAL_DEPTH / side_m
-        grid = np.where(temp >= DEFAULT_ABSORPTION_MIN_K, np.float32(kappa), np.float32(0.0))
-        return grid, f"default: {kappa:g} 1/m where T >= {DEFAULT_ABSORPTION_MIN_K:g} K"
+        kappa = np.float32(DEFAULT_OPTICAL_DEPTH / side_m)
+        grid = np.where(temp >= DEFAULT_ABSORPTION_MIN_K, kappa, np.float32(0.0))
+        how = f"default: {kappa:g} 1/m where T >= {DEFAULT_ABSORPTION_MIN_K:g} K"
+        return grid, how, float(kappa)
     if np.ndim(value) == 0:
-        kappa = _nonnegative_scalar(value, "absorption (1/m)")
-        return np.full(temp.shape, kappa, dtype=np.float32), f"constant {kappa:g} 1/m"
-    return _checked_grid(value, temp.shape, "absorption", source, adopt), "grid"
+        kappa = np.float32(_nonnegative_scalar(value, "absorption (1/m)"))
+        return np.full(temp.shape, kappa), f"constant {kappa:g} 1/m", float(kappa)
+    return _checked_grid(value, temp.shape, "absorption", source, adopt), "grid", None
+
+
+def _made_peak(volume: Volume, kappa0: float, peak_K: float | None, min_K: float) -> float | None:
+    """The two-valued κ₀ of a κ made as κ₀ where T ≥ ``min_K`` K (0 elsewhere), None if no voxel
+    got it: from the hottest voxel when validation found it (no pass over κ), else κ's maximum."""
+    if peak_K is None:
+        peak = float(volume.absorption_per_m.max())
+    else:
+        peak = kappa0 if peak_K >= min_K else 0.0
+    return peak if peak > 0 else None
 
 
 def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] | None:
