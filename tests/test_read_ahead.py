@@ -62,3 +62,30 @@ def test_leaving_early_does_not_wait_for_a_read_in_progress():
     helpers = [t for t in threading.enumerate() if t.name == "incandescent-read-ahead"]
     assert helpers and all(t.daemon and t.is_alive() for t in helpers)  # closed mid-read
     release.set()
+
+
+def test_render_video_renders_volumes_the_read_ahead_prepared(tmp_path, monkeypatch):
+    """render_video streams (volume, camera) pairs; the helper prepares the volume inside (its
+    leaf macrocells, hottest voxel, κ test) before the frame's render is called."""
+    from incandescent import scenes
+    from incandescent.camera import default_camera
+    from incandescent.imaging import DisplaySettings
+    from incandescent.renderer import RenderSettings
+    from incandescent.volume.sparse import LEAF
+
+    volumes = [scenes.soot_plume(12) for _ in range(3)]
+    seen: list[tuple[bool, str]] = []
+    real_render = animation.render
+
+    def spy(volume, camera, *args, **kwargs):
+        prepared = {("macrocells", LEAF, "absorption"), "max_temperature_K", "two_valued_kappa"}
+        seen.append((prepared <= volume._cache.keys(), threading.current_thread().name))
+        return real_render(volume, camera, *args, **kwargs)
+
+    monkeypatch.setattr(animation, "render", spy)
+    camera = default_camera(volumes[0].bounds_m)
+    settings, display = RenderSettings(width=8, height=8), DisplaySettings(exposure_ev=0.0)
+    animation.render_video(
+        volumes.__getitem__, 3, tmp_path / "frames", camera, settings, display, progress=False
+    )
+    assert seen == [(True, "MainThread")] * 3

@@ -330,14 +330,16 @@ def _volumes_in_order(volumes: VolumeSource, n_frames: int, todo: set[int]) -> I
         raise ValueError(f"volumes ran out after {count} frame(s); expected n_frames={n_frames}")
 
 
-def _prepare(volume):
+def _prepare(item):
     """What a new dense volume costs before its first ray and is kept with it: the hottest
     voxel, the two-valued κ test and the leaf-size macrocells (the layout choice and the
-    default skipping read them)."""
+    default skipping read them). ``item``: a volume, or a (volume, camera) pair as
+    :func:`render_video` streams them."""
+    volume = item[0] if isinstance(item, tuple) else item
     if isinstance(volume, Volume):
         _ = volume.max_temperature_K, volume.two_valued_absorption_per_m  # cached on the volume
         volume.macrocells(LEAF)
-    return volume
+    return item
 
 
 _END = object()
