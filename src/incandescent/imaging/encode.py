@@ -17,15 +17,23 @@ def _desaturate(rgb: NDArray[np.float64], weights: NDArray[np.float64]) -> NDArr
     """Mix each pixel towards its luminance ``L`` just enough that its minimum component is 0.
 
     ``c' = L + s (c − L)`` with ``s = L / (L − min c)`` when ``min c < 0``; luminance and hue
-    angle are preserved. Pixels with ``L ≤ 0`` (no displayable colour) become black.
+    angle are preserved. Pixels with ``L ≤ 0`` (no displayable colour) become black. Only the
+    pixels with a negative component are mixed (a fifth of a typical flame image; the minimum
+    of three components from two ``minimum`` passes, not a reduction over an axis of 3).
     """
-    lum = (rgb @ weights)[..., None]
-    low = rgb.min(axis=-1, keepdims=True)
+    out = np.array(rgb, dtype=np.float64)
+    if out.ndim == 1:
+        return _desaturate(out[None], weights)[0]
+    low = np.minimum(np.minimum(out[..., 0], out[..., 1]), out[..., 2])
     needs = low < 0
-    spread = lum - low  # >= 0: a weighted mean is never below the minimum
-    s = np.clip(lum / np.where(needs & (spread > 0), spread, 1.0), 0.0, 1.0)
-    mixed = np.maximum(lum + s * (rgb - lum), 0.0)  # max() only removes round-off
-    return np.where(needs, mixed, rgb)
+    if not needs.any():
+        return out
+    colour = out[needs]
+    lum = (colour @ weights)[:, None]
+    spread = lum - low[needs][:, None]  # >= 0: a weighted mean is never below the minimum
+    s = np.clip(lum / np.where(spread > 0, spread, 1.0), 0.0, 1.0)
+    out[needs] = np.maximum(lum + s * (colour - lum), 0.0)  # max() only removes round-off
+    return out
 
 
 def gamut_map(
@@ -64,8 +72,10 @@ def srgb_oetf(linear: ArrayLike) -> NDArray[np.float64]:
     colour-science's ``eotf_inverse_sRGB``, and clipped later by :func:`quantize`.
     """
     arr = _validate.real_array(linear, "linear")
-    power = 1.055 * np.power(np.maximum(arr, 0.0031308), 1.0 / 2.4) - 0.055
-    return np.where(arr <= 0.0031308, 12.92 * arr, power)
+    out = np.array(12.92 * arr, dtype=np.float64)
+    bright = arr > 0.0031308  # the power law only where it applies (dark pixels are common)
+    out[bright] = 1.055 * np.power(arr[bright], 1.0 / 2.4) - 0.055
+    return out
 
 
 def quantize(encoded: ArrayLike, bits: int = 8) -> NDArray[np.uint8] | NDArray[np.uint16]:
