@@ -465,3 +465,17 @@ def test_bench_cold_frames_render_the_same_samples_as_warm():
     cases = {r["case"]: r for r in json.loads(result.stdout)["scenes"][0]["results"]}
     cold = cases["cpu, all threads, cold (a new volume each frame)"]
     assert cold["samples"] == cases["cpu, all threads"]["samples"] > 0
+
+
+def test_a_backend_that_cannot_run_is_refused_before_the_volume_is_read(tmp_path):
+    """`render` loads its backend before reading the volume (a .vdb's OpenVDB worker starts
+    meanwhile): a backend that cannot run fails first, naming itself, not the file."""
+    from incandescent.renderer.backends.jit import cuda_problem
+
+    if cuda_problem() is None:
+        pytest.skip("a CUDA GPU is present: the cuda backend can run")
+    unreadable = tmp_path / "volume.npz"
+    unreadable.write_bytes(b"not a zip archive")
+    result = _run("render", unreadable, "-o", tmp_path / "out.exr", "--backend", "cuda")
+    assert result.exit_code != 0
+    assert "backend 'cuda' is unavailable" in result.output and "not a zip" not in result.output

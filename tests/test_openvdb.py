@@ -7,6 +7,7 @@ clear errors and the worker comes back. Skipped, with the reason, where python3-
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import textwrap
 from pathlib import Path
@@ -159,7 +160,42 @@ def test_a_killed_worker_is_replaced(tiled):
     for worker in openvdb._WORKERS.values():
         worker.process.kill()
         worker.process.wait()
+    openvdb._DESCRIBED.clear()  # ask the worker again, not the remembered description
     assert {i.name for i in vdb.list_grids(tiled)} == {"density", "velocity"}
+
+
+def test_a_description_is_remembered_until_the_file_changes(tiled, tmp_path, monkeypatch):
+    """A render describes its file three times (open, extent, read); OpenVDB reads it once."""
+    copy = tmp_path / "copy.vdb"
+    copy.write_bytes(tiled.read_bytes())
+    asked = []
+    real_ask = openvdb.ask
+    monkeypatch.setattr(
+        openvdb, "ask", lambda path, request: asked.append(request) or real_ask(path, request)
+    )
+    first = vdb.list_grids(copy, ranges=False)
+    assert vdb.list_grids(copy, ranges=False) == first and len(asked) == 1
+    vdb.list_grids(copy)  # other options: asked
+    assert len(asked) == 2
+    os.utime(copy, ns=(copy.stat().st_atime_ns, copy.stat().st_mtime_ns + 10**9))
+    assert vdb.list_grids(copy, ranges=False) == first and len(asked) == 3  # changed: asked
+
+
+def test_finding_the_interpreter_starts_the_worker_reads_use(monkeypatch):
+    """No separate probe process: the worker that answered is kept for the reads."""
+    python = openvdb.interpreter()
+    openvdb.interpreter.cache_clear()
+    for worker in openvdb._WORKERS.values():
+        worker.close()
+    openvdb._WORKERS.clear()
+    assert openvdb.interpreter() == python
+    assert openvdb._WORKERS[python].process.poll() is None  # running, ready for requests
+    openvdb.interpreter.cache_clear()
+    monkeypatch.setenv(openvdb.ENV_VAR, "/bin/true")  # starts, never says it is ready
+    assert openvdb.interpreter() is None
+    openvdb.interpreter.cache_clear()
+    monkeypatch.delenv(openvdb.ENV_VAR)
+    assert openvdb.interpreter() == python
 
 
 def test_info_json_agrees_with_openvdb():

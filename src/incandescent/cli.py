@@ -248,6 +248,7 @@ def render(
         if out.path is None:
             raise ValueError("no output: give -o OUT.exr|.png or [output] path in the scene file")
         _check_outputs(out.path, out.stats, out.overwrite)
+        _start_backends(scene.volume.path, out.backend)
         from incandescent.volume import Volume  # noqa: F811 - at run time, not only for types
 
         settings = scene.render_settings()
@@ -266,6 +267,19 @@ def render(
                 stats_data = _stats(image, start)
                 written.append(api.write_json(out.stats, stats_data, overwrite=out.overwrite))
     _summary(image, written)
+
+
+def _start_backends(path: Path, backend: str | None) -> None:
+    """Before the volume is read: a .vdb's OpenVDB worker starts (a process of its own) while the
+    render backend loads here (Dr.Jit, ~80 ms), and a backend that cannot run is an error before
+    any reading."""
+    if path.suffix.lower() == ".vdb":
+        from incandescent.io import openvdb
+
+        openvdb.start()
+    from incandescent.renderer.backends import resolve_backend
+
+    resolve_backend(backend)
 
 
 def _scene(source: Path, overrides: dict):
