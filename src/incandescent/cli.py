@@ -248,7 +248,7 @@ def render(
         if out.path is None:
             raise ValueError("no output: give -o OUT.exr|.png or [output] path in the scene file")
         _check_outputs(out.path, out.stats, out.overwrite)
-        _start_backends(scene.volume.path, out.backend)
+        backend = _start_backends(scene.volume.path, out.backend)
         from incandescent.volume import Volume  # noqa: F811 - at run time, not only for types
 
         settings = scene.render_settings()
@@ -260,7 +260,7 @@ def render(
         start = time.perf_counter()
         camera, settings = scene.camera_for(volume), scene.render_settings()
         with _render_progress() as progress:
-            image = api.render(volume, camera, settings, out.backend, limits, progress)
+            image = api.render(volume, camera, settings, backend, limits, progress)
         with all_or_nothing():  # the image and its stats, or neither
             written = [api.save_image(image, out.path, scene.display_settings(), out.overwrite)]
             if out.stats is not None:
@@ -269,17 +269,17 @@ def render(
     _summary(image, written)
 
 
-def _start_backends(path: Path, backend: str | None) -> None:
-    """Before the volume is read: a .vdb's OpenVDB worker starts (a process of its own) while the
-    render backend loads here (Dr.Jit, ~80 ms), and a backend that cannot run is an error before
-    any reading."""
+def _start_backends(path: Path, backend: str | None) -> str:
+    """The render backend resolved before the volume is read: a .vdb's OpenVDB worker starts (a
+    process of its own) while it loads here (Dr.Jit, ~80 ms), and a backend that cannot run is an
+    error before any reading."""
     if path.suffix.lower() == ".vdb":
         from incandescent.io import openvdb
 
         openvdb.start()
     from incandescent.renderer.backends import resolve_backend
 
-    resolve_backend(backend)
+    return resolve_backend(backend)
 
 
 def _scene(source: Path, overrides: dict):

@@ -173,6 +173,7 @@ def ask(path: Path, request: dict) -> dict:
 #: the whole file (~110 ms for a 192³ grid pair).
 _DESCRIBED: dict[tuple, list[dict]] = {}
 _DESCRIBED_KEPT = 8
+_DESCRIBED_LOCK = threading.Lock()  # the read-ahead thread describes files too
 
 
 def describe(path: Path, sums: bool = False, ranges: bool = True) -> list[dict]:
@@ -187,12 +188,15 @@ def describe(path: Path, sums: bool = False, ranges: bool = True) -> list[dict]:
     except OSError:  # the worker says what is wrong with the path
         return ask(path, request)["grids"]
     key = (str(resolved), stat.st_ino, stat.st_size, stat.st_mtime_ns, sums, ranges)
-    if key not in _DESCRIBED:
+    with _DESCRIBED_LOCK:
+        grids = _DESCRIBED.get(key)
+    if grids is None:
         grids = ask(path, request)["grids"]
-        while len(_DESCRIBED) >= _DESCRIBED_KEPT:
-            del _DESCRIBED[next(iter(_DESCRIBED))]
-        _DESCRIBED[key] = grids
-    return copy.deepcopy(_DESCRIBED[key])
+        with _DESCRIBED_LOCK:
+            while len(_DESCRIBED) >= _DESCRIBED_KEPT:
+                del _DESCRIBED[next(iter(_DESCRIBED))]
+            _DESCRIBED[key] = grids
+    return copy.deepcopy(grids)
 
 
 def _box_request(op: str, path: Path, names, lo, hi, folder: str) -> dict:
