@@ -39,10 +39,12 @@ def _brute_macrocells(kappa: np.ndarray, s: int) -> np.ndarray:
 
 @pytest.mark.parametrize("shape", [(17, 9, 23), (24, 8, 8), (3, 5, 4)])
 @pytest.mark.parametrize("s", [8, 4])
-def test_macrocells_in_slabs_are_the_definition(three_threads, shape, s):
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_macrocells_in_slabs_are_the_definition(three_threads, shape, s, dtype):
     rng = np.random.default_rng(sum(shape) + s)
-    kappa = np.where(rng.random(shape) > 0.85, rng.random(shape), 0.0).astype(np.float32)
+    kappa = np.where(rng.random(shape) > 0.85, rng.random(shape), 0.0).astype(dtype)
     cells = build_macrocells(kappa, s).max_absorption
+    assert cells.dtype == np.float32
     np.testing.assert_array_equal(cells, _brute_macrocells(kappa, s))
 
 
