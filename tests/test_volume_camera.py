@@ -102,9 +102,8 @@ def _fresh(values) -> np.ndarray:
 
 
 def test_copy_false_hands_over_fresh_float32_grids_and_copy_true_does_not():
-    temp = _fresh(
-        np.linspace(300.0, 2500.0, np.prod(BIG))
-    )  # a reshape of a fresh array, as np.load
+    # each grid a reshape of a fresh array, as np.load returns them
+    temp = _fresh(np.linspace(300.0, 2500.0, np.prod(BIG)))
     kappa = _fresh(np.full(BIG, 2.0))
     kept = Volume.from_arrays(temp, absorption=kappa, copy=False)
     assert kept.temperature_K is temp and kept.absorption_per_m is kappa
