@@ -479,3 +479,19 @@ def test_a_backend_that_cannot_run_is_refused_before_the_volume_is_read(tmp_path
     result = _run("render", unreadable, "-o", tmp_path / "out.exr", "--backend", "cuda")
     assert result.exit_code != 0
     assert "backend 'cuda' is unavailable" in result.output and "not a zip" not in result.output
+
+
+def test_animate_lets_frames_reuse_freed_memory(tmp_path, monkeypatch):
+    """`animate` renders a sequence in this process: it keeps freed frame buffers for the next
+    frame (``animation.keep_frame_memory``; what that does: tests/test_read_ahead.py)."""
+    from incandescent import animation
+    from incandescent.scenes import plume_temperature
+
+    calls = []
+    monkeypatch.setattr(animation, "keep_frame_memory", lambda: calls.append(1) or True)
+    for i in range(2):
+        np.save(tmp_path / f"f_{i}.npy", plume_temperature(12))
+    args = ["animate", str(tmp_path / "f_*.npy"), "-o", tmp_path / "out", "--width", 16]
+    result = _run(*args, "--height", 16)
+    assert result.exit_code == 0, result.output
+    assert calls == [1]

@@ -89,3 +89,38 @@ def test_render_video_renders_volumes_the_read_ahead_prepared(tmp_path, monkeypa
         volumes.__getitem__, 3, tmp_path / "frames", camera, settings, display, progress=False
     )
     assert seen == [(True, "MainThread")] * 3
+
+
+_SECOND_FRAME_FAULTS = """
+import resource, sys
+import numpy as np
+from incandescent.animation import keep_frame_memory
+
+kept = keep_frame_memory() if sys.argv[1] == "keep" else None
+a = np.ones(48 << 18, np.float32)  # one frame's 48 MB array, freed
+del a
+before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+b = np.ones(48 << 18, np.float32)  # the next frame's
+print(kept, resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
+"""
+
+
+@pytest.mark.parametrize("mode", ["default", "keep"])
+def test_a_kept_frame_buffer_is_reused_without_page_faults(mode):
+    """keep_frame_memory (the CLI's animate calls it): the next frame's array reuses the pages the
+    last one freed — no page faults — where by default glibc returned them and they fault in
+    again. In a subprocess: it changes the process's allocator."""
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", _SECOND_FRAME_FAULTS, mode],
+        capture_output=True, text=True, timeout=120, check=True,
+    )  # fmt: skip
+    kept, faults = done.stdout.split()
+    if mode == "default":
+        assert int(faults) > 0
+    elif kept != "True":
+        pytest.skip("not glibc: keep_frame_memory is a no-op here")
+    else:
+        assert int(faults) == 0

@@ -330,6 +330,32 @@ def _volumes_in_order(volumes: VolumeSource, n_frames: int, todo: set[int]) -> I
         raise ValueError(f"volumes ran out after {count} frame(s); expected n_frames={n_frames}")
 
 
+#: Blocks up to this size stay in the C heap when freed (``keep_frame_memory``): a 256³ float32
+#: grid is 67 MB, so the grids of 256³ frames are kept; bigger ones come and go as before.
+FRAME_HEAP_BYTES = 256 << 20
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters (malloc.h)
+
+
+def keep_frame_memory() -> bool:
+    """Let each frame of a sequence reuse the memory the frame before freed (glibc; elsewhere a
+    no-op returning False). By default glibc gives every freed block above ~32 MB back to the
+    system, so the next frame's arrays (its file read, its absorption) fault fresh pages in, which
+    the kernel zeroes — on the VMs measured, a first touch of 57 MB took 7 ms or, at random,
+    140–165 ms. With blocks up to FRAME_HEAP_BYTES kept in the heap (at most that much held when
+    idle): 162 → 130 ms per 192³ frame of ``animate`` (``benchmarks/animate_cost.py``, four
+    alternating process pairs). For processes that render sequences (the CLI's ``animate``), not
+    for a library's host."""
+    import ctypes
+
+    try:
+        mallopt = ctypes.CDLL(None).mallopt
+    except (OSError, AttributeError):
+        return False
+    mallopt.argtypes, mallopt.restype = [ctypes.c_int, ctypes.c_int], ctypes.c_int
+    kept = mallopt(_M_MMAP_THRESHOLD, FRAME_HEAP_BYTES) == 1
+    return kept and mallopt(_M_TRIM_THRESHOLD, FRAME_HEAP_BYTES) == 1
+
+
 def _prepare(item):
     """What a new dense volume costs before its first ray and is kept with it: the hottest
     voxel, the two-valued κ test and the leaf-size macrocells (the layout choice and the

@@ -672,6 +672,7 @@ def animate(
         file_identity,
         fixed_display,
         frame_path,
+        keep_frame_memory,
         key_frame,
         plan_output,
         render_video,
@@ -682,6 +683,7 @@ def animate(
         limits = _limits(max_memory, max_samples)
         frame_dir, _ = plan_output(output, None, overwrite)  # before reading or rendering
         paths = expand_sequence(pattern)
+        keep_frame_memory()  # this process renders a sequence: frames reuse freed memory
         overrides = _overrides(flags)  # the same schema as `render` ...
         overrides.pop("output")  # ... except the output, a video or a folder here
         scene = _scene(paths[0], overrides)
