@@ -341,7 +341,7 @@ def keep_frame_memory() -> bool:
     no-op returning False). By default glibc gives every freed block above ~32 MB back to the
     system, so the next frame's arrays (its file read, its absorption) fault fresh pages in, which
     the kernel zeroes — on the VMs measured, a first touch of 57 MB took 7 ms or, at random,
-    140–165 ms. With blocks up to FRAME_HEAP_BYTES kept in the heap (at most that much held when
+    136–165 ms. With blocks up to FRAME_HEAP_BYTES kept in the heap (at most that much held when
     idle): 162 → 130 ms per 192³ frame of ``animate`` (``benchmarks/animate_cost.py``, four
     alternating process pairs). For processes that render sequences (the CLI's ``animate``), not
     for a library's host."""
