@@ -11,9 +11,11 @@ from incandescent.renderer import RenderSettings, render
 from incandescent.renderer.backends import BackendUnavailable, available_backends, resolve_backend
 from incandescent.renderer.backends.jit import array_module, cuda_problem
 from incandescent.renderer.backends.march import (
-    _on_device,
+    _device_grid,
+    _host_packed,
+    _host_signed,
+    _Kernel,
     _packed_medium,
-    _padded,
     _signed_medium,
 )
 from incandescent.volume import Remap, Volume, build_macrocells
@@ -92,25 +94,22 @@ def test_two_valued_absorption_is_detected():
         assert vol.replace().two_valued_absorption_per_m == vol.two_valued_absorption_per_m
 
 
-def test_device_grid_layouts_are_edge_padded_copies():
-    """The kernel's padded grids equal np.pad(mode="edge") of (κ, T) packed, and of T signed."""
+def test_device_grid_layouts_are_the_grids_in_c_order():
+    """The kernel's grids are unpadded, voxels in C order: (κ, T) packed low/high in 64 bits, and
+    T's bits with the sign bit set where κ = 0."""
     rng = np.random.default_rng(1)
-    grid = rng.random((5, 7, 3)).astype(np.float32)
-    np.testing.assert_array_equal(_padded(grid), np.pad(grid, 1, mode="edge").ravel())
     temp = rng.uniform(300.0, 2000.0, (6, 4, 5))
     vol = Volume.from_arrays(temp, absorption=np.where(temp > 900.0, 2.5, 0.0))
-    pair = np.stack([vol.absorption_per_m, vol.temperature_K], axis=-1)
-    packed = np.pad(pair, ((1, 1), (1, 1), (1, 1), (0, 0)), mode="edge")
-    np.testing.assert_array_equal(_packed_medium(vol), packed.view("<u8").ravel())
+    pair = np.stack([vol.absorption_per_m, vol.temperature_K], axis=-1).astype("<f4")
+    np.testing.assert_array_equal(_host_packed(vol), pair.view("<u8").ravel())
     signed = np.where(vol.absorption_per_m > 0, vol.temperature_K, -vol.temperature_K)
-    padded = np.pad(signed.astype("<f4"), 1, mode="edge").view("<u4").ravel()
-    np.testing.assert_array_equal(_signed_medium(vol), padded)
+    np.testing.assert_array_equal(_host_signed(vol), signed.astype("<f4").view("<u4").ravel())
 
 
 @pytest.mark.parametrize("kind", ["cpu", "cuda"])
-def test_device_layouts_built_in_device_memory_equal_the_host_ones(kind):
-    """Built in place in Dr.Jit's buffer on the CPU (uploaded on CUDA), each layout holds exactly
-    the host pass's bits, a float64 grid converted to float32."""
+def test_device_layouts_equal_the_host_ones(kind):
+    """Built by one Dr.Jit pass on the CPU (uploaded from the host build on CUDA), each layout
+    holds exactly the host build's bits; an extra grid is its float32 values in C order."""
     if kind not in available_backends():
         pytest.skip(f"backend {kind} unavailable")
     m = array_module(kind)
@@ -118,12 +117,47 @@ def test_device_layouts_built_in_device_memory_equal_the_host_ones(kind):
     temp = rng.uniform(300.0, 2000.0, (6, 4, 5))
     two = Volume.from_arrays(temp, absorption=np.where(temp > 900.0, 2.5, 0.0))
     graded = Volume.from_arrays(temp, absorption=rng.uniform(0.0, 3.0, temp.shape))
-    for array_type, layout, host in (
-        (m.UInt, lambda e: _signed_medium(two, e), _signed_medium(two)),
-        (m.UInt64, lambda e: _packed_medium(graded, e), _packed_medium(graded)),
-        (m.Float, lambda e: _padded(temp, e, "<f4"), _padded(temp.astype(np.float32))),
-    ):
-        np.testing.assert_array_equal(np.asarray(_on_device(m, array_type, layout)), host)
+    np.testing.assert_array_equal(np.asarray(_signed_medium(m, two)), _host_signed(two))
+    np.testing.assert_array_equal(np.asarray(_packed_medium(m, graded)), _host_packed(graded))
+    strided = rng.uniform(0.0, 2.0, (5, 4, 3, 2))[..., 1]  # float64, not contiguous
+    extra = _device_grid(m, two, ("test",), strided)
+    np.testing.assert_array_equal(np.asarray(extra), strided.astype(np.float32).ravel())
+
+
+def test_corners_clamp_to_the_edge_voxel_as_the_padded_grid_did():
+    """Trilinear lookups through the clamped corners equal lookups in the grid padded by one
+    edge-replicated voxel (the edge rule), inside, in the outer half voxel and outside, and read
+    nothing past the grid (NaN there would show)."""
+    m = array_module("cpu")
+    rng = np.random.default_rng(3)
+    shape = (5, 1, 4)  # one axis a single voxel thick
+    grid = rng.uniform(0.0, 1.0, shape).astype(np.float32)
+    vol = Volume.from_arrays(np.full(shape, 1500.0), absorption=1.0)
+    kernel = _Kernel(m, _march_inputs_for(vol))
+    points = rng.uniform(-1.0, 1.0, (400, 3)) * 1.2 * np.array(shape) + np.array(shape) / 2
+    points[:6] = [(0, 0, 0), (5, 1, 4), (0.25, 0.5, 3.9), (4.75, 0, 0.1), (2.5, 0.5, 2), (-1, 2, 9)]
+    p = m.Array3f(*(m.Float(points[:, a].astype(np.float32)) for a in range(3)))
+    beyond = np.concatenate([grid.ravel(), np.full(64, np.nan, np.float32)])
+    got = np.asarray(kernel.trilinear(m.Float(beyond), kernel.corners(p)))
+    padded = np.pad(grid, 1, mode="edge").astype(np.float64)
+    u = np.clip(points, 0.0, np.array(shape, dtype=np.float64)) + 0.5  # padded voxel coordinate
+    i0 = np.minimum(np.floor(u).astype(int), np.array(shape))
+    w = u - i0
+    expected = np.zeros(len(points))
+    for corner in np.ndindex(2, 2, 2):
+        weight = np.prod(np.where(corner, w, 1.0 - w), axis=1)
+        expected += weight * padded[tuple((i0 + corner).T)]
+    np.testing.assert_allclose(got, expected, rtol=1e-5, atol=1e-6)
+
+
+def _march_inputs_for(vol):
+    from incandescent.camera import default_camera
+    from incandescent.emission import models_for
+    from incandescent.renderer.api import _march_inputs
+
+    settings = RenderSettings(width=8, height=8)
+    models = models_for(vol, settings)
+    return _march_inputs(vol, default_camera(vol.bounds_m), settings, "cpu", models)
 
 
 def test_empty_radius_is_the_chebyshev_distance_to_the_nearest_occupied_cell():

@@ -98,20 +98,3 @@ def test_kappa_two_valued_in_each_slab_but_not_across_them_is_graded(three_threa
     kappa[8:, 1, 1] = 2.5
     two_valued = Volume.from_arrays(temperature, kappa).replace()
     assert two_valued.two_valued_absorption_per_m == 2.5
-
-
-def test_device_layouts_in_slabs_are_the_padded_grids(three_threads):
-    """The signed (T, κ = 0 bit), packed (κ, T) and plain padded grids built slab by slab equal
-    ``np.pad(mode="edge")`` of the grids."""
-    from incandescent.renderer.backends import march
-
-    rng = np.random.default_rng(7)
-    temperature = rng.uniform(300, 2500, size=(14, 5, 6)).astype(np.float32)
-    kappa = np.where(rng.random((14, 5, 6)) > 0.5, 1.5, 0.0).astype(np.float32)
-    volume = Volume.from_arrays(temperature, kappa)
-    pad_t, pad_k = (np.pad(g, 1, mode="edge") for g in (temperature, kappa))
-    signed = pad_t.view("<u4") | (pad_k <= 0).astype(np.uint32) << 31
-    np.testing.assert_array_equal(march._signed_medium(volume), signed.ravel())
-    packed = np.stack([pad_k, pad_t], axis=-1).view("<u8")
-    np.testing.assert_array_equal(march._packed_medium(volume), packed.ravel())
-    np.testing.assert_array_equal(march._padded(temperature), pad_t.ravel())

@@ -15,7 +15,6 @@ Outputs are the loop's own state variables (XYZ, transmittance, sample count): n
 
 from __future__ import annotations
 
-import math
 import time
 import weakref
 
@@ -36,7 +35,6 @@ from incandescent.renderer.backends.common import (
 )
 from incandescent.renderer.backends.jit import array_module, device_name, drjit_module
 from incandescent.renderer.rays import lane_order
-from incandescent.volume.slabs import map_slabs
 from incandescent.volume.sparse import SparseVolume
 
 
@@ -60,8 +58,11 @@ class _Kernel:
             self.medium, self.brick_index, self.brick_shape = _device_bricks(m, vol)
             self.scale = None
         else:
-            nx, ny, nz = (n + 2 for n in vol.shape)
-            self.strides = (ny * nz, nz, 1)
+            _, ny, nz = vol.shape
+            # C order; an axis one voxel thick steps 0 (both neighbours are its voxel)
+            self.strides = tuple(  # type: ignore[assignment]
+                0 if n == 1 else s for n, s in zip(vol.shape, (ny * nz, nz, 1), strict=True)
+            )
             self.medium, self.scale = _device_grids(m, vol)
         kappa0 = vol.two_valued_absorption_per_m
         self.kappa0 = None if kappa0 is None else np.float32(kappa0)
@@ -111,10 +112,25 @@ class _Kernel:
     def corners(self, p):
         """Flat index of the lower trilinear neighbour of p and the weights along x, y, z.
 
-        Grids are padded by one edge-replicated voxel on every side (``_padded``), so voxel
-        centres sit at padded index i + 0.5 − 1 and no per-corner clamping is needed: a position
-        in the outer half voxel interpolates between two equal values (the edge rule, DESIGN §4).
+        Voxel centres sit at i + 0.5. Dense grids are unpadded: p is clamped to the centres of
+        the outermost voxels (the upper neighbour of the last two along an axis, weight 1), so a
+        position in the outer half voxel takes the edge voxel's value (the edge rule, DESIGN §4)
+        with the neighbours at fixed offsets and never outside the grid; an axis one voxel thick
+        has both neighbours at that voxel. Bricks carry a one-voxel border (``bricks``).
         """
+        if self.brick_index is not None:
+            return self.brick_corners(p)
+        dr, m = self.dr, self.m
+        base, weights = m.UInt(0), []
+        for a, n in enumerate(self.shape):  # n = 1: stride 0, both neighbours are the one voxel
+            u = dr.clip(p[a] + 0.5, 1.0, float(n))  # 1 + the coordinate from the first centre
+            i0 = dr.minimum(m.UInt(u), max(n - 1, 1))  # the upper neighbour, 1..n − 1
+            weights.append(u - m.Float(i0))
+            base += i0 * self.strides[a]
+        return base - sum(self.strides), weights
+
+    def brick_corners(self, p):
+        """:meth:`corners` in the bricks (grid coordinates padded by one voxel)."""
         dr, m = self.dr, self.m
         lower, weights = [], []
         for a, n in enumerate(self.shape):
@@ -122,12 +138,11 @@ class _Kernel:
             i0 = dr.minimum(m.UInt(u), n)
             lower.append(i0)
             weights.append(u - m.Float(i0))
-        if self.brick_index is not None:
-            return self.brick_corner(lower), weights
-        return sum((i0 * s for i0, s in zip(lower, self.strides, strict=True)), m.UInt(0)), weights
+        return self.brick_corner(lower), weights
 
     def brick_corner(self, lower):
-        """Pool index of the lower corner: brick ⌊i0 / 8⌋'s slot, then i0 mod 8 inside it."""
+        """Pool index of the lower corner (``lower``: each axis's index in the grid padded by one
+        voxel, as the bricks are): brick ⌊i0 / 8⌋'s slot, then i0 mod 8 inside it."""
         _, ny, nz = self.brick_shape
         bx, by, bz = (i0 >> 3 for i0 in lower)
         slot = self.dr.gather(self.m.UInt, self.brick_index, (bx * ny + by) * nz + bz)
@@ -135,7 +150,8 @@ class _Kernel:
         return slot * BRICK_VOXELS + (lx * BRICK + ly) * BRICK + lz
 
     def trilinear(self, grid, c, kind=None):
-        """Trilinear sample of a padded grid: Float values, or (κ, T) pairs packed in UInt64."""
+        """Trilinear sample of a grid at corners ``c`` (:meth:`corners`): Float values, or (κ, T)
+        pairs packed in UInt64."""
         dr = self.dr
         kind = kind or self.m.Float
         base, (fx, fy, fz) = c
@@ -321,117 +337,74 @@ def _table4(values: np.ndarray) -> np.ndarray:
     return out.ravel()
 
 
-def _padded_empty(shape, dtype, empty=np.empty) -> np.ndarray:
-    """An uninitialised array one voxel larger on each side of the 3 leading axes of ``shape``,
-    from ``empty(shape, dtype)``."""
-    return empty(tuple(n + 2 for n in shape[:3]) + tuple(shape[3:]), dtype)
+def _flat32(grid: np.ndarray) -> np.ndarray:
+    """``grid`` as one C-ordered float32 run: the grid itself when it is one, else a copy."""
+    return np.ascontiguousarray(grid, dtype=np.float32).reshape(-1)
 
 
-def _edge_pad(out: np.ndarray) -> np.ndarray:
-    """Fill the one-voxel border of ``out``'s 3 leading axes with its outermost inner layers, in
-    place (axis by axis, so edges and corners replicate too: ``np.pad(mode="edge")``, 3× faster)."""
-    for axis in range(3):
-        view = np.moveaxis(out, axis, 0)
-        view[0], view[-1] = view[1], view[-2]
-    return out
-
-
-def _padded(grid: np.ndarray, empty=np.empty, dtype=None) -> np.ndarray:
-    """The grid with one edge-replicated voxel on every side, flattened (C order), as ``dtype``
-    (default the grid's)."""
-    out = _padded_empty(grid.shape, dtype or grid.dtype, empty)
-
-    def copy(lo: int, hi: int) -> None:
-        out[1 + lo : 1 + hi, 1:-1, 1:-1] = grid[lo:hi]
-
-    map_slabs(copy, grid.shape[0], grid.size)
-    return _edge_pad(out).ravel()
-
-
-#: Device copies of each live volume's padded grids, per array module (freed with the volume).
+#: Device copies of each live volume's grids, per array module (freed with the volume).
 _DEVICE_GRIDS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-#: x-layers the packed layout is written in at a time: T's strided write then finds the lines κ's
-#: wrote in cache.
-LAYERS = 2
-#: x-layers the signed layout is written in at a time (measured at 256³: 2, 4 and 8 layers
-#: 14.7, 14.4 and 15.0 ms against 18.5 ms for whole slabs).
-SIGN_LAYERS = 4
+def _host_signed(volume) -> np.ndarray:
+    """:func:`_signed_medium` built by NumPy (what CUDA uploads)."""
+    temp = _flat32(volume.temperature_K).view("<u4")
+    return temp | (_flat32(volume.absorption_per_m) <= 0).astype(np.uint32) << 31
 
 
-def _layers(lo: int, hi: int) -> list[tuple[int, int]]:
-    """[lo, hi) in runs of LAYERS x-layers (a 192² layer of the packed layout is 300 KB: two fit
-    a Zen 3 core's 512 KB L2; measured 5.1 → 4.3 ms for the 192³ packed layout, while the
-    signed layout's whole-slab passes were not improved by it)."""
-    return [(a, min(a + LAYERS, hi)) for a in range(lo, hi, LAYERS)]
+def _host_packed(volume) -> np.ndarray:
+    """:func:`_packed_medium` built by NumPy (what CUDA uploads)."""
+    out = np.empty((volume.temperature_K.size, 2), dtype="<f4")
+    out[:, 0], out[:, 1] = _flat32(volume.absorption_per_m), _flat32(volume.temperature_K)
+    return out.view("<u8").reshape(-1)
 
 
-def _packed_medium(volume, empty=np.empty) -> np.ndarray:
-    """Padded (κ, T) per voxel packed into one uint64 (κ's float32 bits low, T's high): a
-    trilinear corner is then one 64-bit gather instead of two 32-bit ones (measured 1.6× faster
-    gathers on AVX2)."""
-    out = _padded_empty(volume.shape + (2,), "<f4", empty)
+def _signed_medium(m, volume):
+    """T's float32 bits with the sign bit set where κ = 0 (two-valued κ), voxels in C order: one
+    32-bit gather per trilinear corner gives T and the occupancy, half the memory of the packed
+    pair.
 
-    def pack(lo: int, hi: int) -> None:
-        for a, b in _layers(lo, hi):
-            out[1 + a : 1 + b, 1:-1, 1:-1, 0] = volume.absorption_per_m[a:b]
-            out[1 + a : 1 + b, 1:-1, 1:-1, 1] = volume.temperature_K[a:b]
-
-    map_slabs(pack, volume.shape[0], int(np.prod(volume.shape)))
-    return _edge_pad(out).view("<u8").reshape(-1)
-
-
-def _signed_medium(volume, empty=np.empty) -> np.ndarray:
-    """Padded T's float32 bits with the sign bit set where κ = 0 (two-valued κ): one 32-bit
-    gather per trilinear corner gives T and the occupancy, half the memory of the packed pair.
-    Written SIGN_LAYERS x-layers at a time through one small mask buffer per slab, which stays in
-    cache (a grid-sized mask was a fresh allocation per volume: 18.5 → 14.4 ms at 256³)."""
-    out = _padded_empty(volume.shape, "<u4", empty)
-    temp, kappa = volume.temperature_K, volume.absorption_per_m
-
-    def sign(lo: int, hi: int) -> None:
-        vacuum = np.empty((SIGN_LAYERS,) + volume.shape[1:], dtype=bool)
-        for a in range(lo, hi, SIGN_LAYERS):
-            b = min(a + SIGN_LAYERS, hi)
-            inner = out[1 + a : 1 + b, 1:-1, 1:-1]
-            mask = np.less_equal(kappa[a:b], 0, out=vacuum[: b - a])
-            np.left_shift(mask, 31, out=inner, dtype=np.uint32, casting="unsafe")
-            np.bitwise_or(inner, temp[a:b].view("<u4"), out=inner)
-
-    map_slabs(sign, volume.shape[0], int(np.prod(volume.shape)))
-    return _edge_pad(out).ravel()
-
-
-def _on_device(m, array_type, layout):
-    """The device array of ``layout(empty)``, a host pass filling ``empty(shape, dtype)``.
-
-    On the CPU the buffer is Dr.Jit's own, filled in place: no copy, and Dr.Jit's allocation
-    cache hands a new volume the pages a freed one used. A fresh NumPy buffer instead paid its
-    page faults (and, being marked for huge pages, sometimes a compaction stall) on every new
-    volume: the 192³ packed layout took 13–77 ms in a render against 6–8 ms this way.
-    """
+    On the CPU one Dr.Jit pass over the grids, which it maps without a copy: unpadded (the
+    kernel clamps its corners) the layout is elementwise, ~5 ms at 256³ against 14–19 ms for
+    the padded NumPy passes it replaces; its buffer comes from Dr.Jit's allocation cache, which
+    hands a new volume the pages a freed one used. CUDA uploads the host build (no grid-sized
+    temporaries on the device)."""
     if m.__name__ != "drjit.llvm":
-        return array_type(layout(np.empty))
-    dr, buffers = drjit_module(), []
+        return m.UInt(_host_signed(volume))
+    dr = drjit_module()
+    temp = dr.reinterpret_array(m.UInt, m.Float(_flat32(volume.temperature_K)))
+    vacuum = m.Float(_flat32(volume.absorption_per_m)) <= 0.0
+    return _evaluated(dr, temp | dr.select(vacuum, m.UInt(0x80000000), 0))
 
-    def empty(shape, dtype):
-        nbytes = math.prod(shape) * np.dtype(dtype).itemsize
-        buffer = dr.empty(array_type, nbytes // dr.itemsize_v(array_type))
-        dr.eval(buffer)
-        buffers.append(buffer)
-        return buffer.numpy().view(dtype).reshape(shape)
 
-    layout(empty)
-    return buffers[0]
+def _packed_medium(m, volume):
+    """(κ, T) per voxel packed into one uint64 (κ's float32 bits low, T's high), voxels in C
+    order: a trilinear corner is then one 64-bit gather instead of two 32-bit ones (measured
+    1.6× faster gathers on AVX2). Built as :func:`_signed_medium` is."""
+    if m.__name__ != "drjit.llvm":
+        return m.UInt64(_host_packed(volume))
+    dr = drjit_module()
+    temp, kappa = (
+        m.UInt64(dr.reinterpret_array(m.UInt, m.Float(_flat32(g))))
+        for g in (volume.temperature_K, volume.absorption_per_m)
+    )
+    return _evaluated(dr, (temp << 32) | kappa)
+
+
+def _evaluated(dr, array):
+    """``array`` computed now (before the march is timed)."""
+    dr.eval(array)
+    dr.sync_thread()
+    return array
 
 
 def _device_grid(m, volume, key: tuple, grid: np.ndarray):
-    """One extra padded grid of ``volume`` on the device, uploaded once per volume and key."""
+    """One extra grid of ``volume`` on the device (float32, C order), once per volume and key;
+    on the CPU a float32 C-ordered grid is mapped, not copied."""
     per_volume = _DEVICE_GRIDS.setdefault(volume, {})
     full_key = (m.__name__,) + key
     if full_key not in per_volume:
-        per_volume[full_key] = _on_device(m, m.Float, lambda empty: _padded(grid, empty, "<f4"))
+        per_volume[full_key] = m.Float(_flat32(grid))
     return per_volume[full_key]
 
 
@@ -458,8 +431,8 @@ def _device_velocity_bricks(m, volume: SparseVolume) -> list:
 
 
 def _device_grids(m, volume):
-    """((κ, T) interleaved, emission scale) as padded device arrays (None where absent),
-    uploaded once per volume.
+    """((κ, T) interleaved, emission scale) as device arrays (None where absent), uploaded once
+    per volume.
 
     κ and T of a voxel share a cache line, so the second lookup is nearly free.
     """
@@ -467,16 +440,8 @@ def _device_grids(m, volume):
     if m.__name__ not in per_volume:
         scale = volume.emission_scale
         two_valued = volume.two_valued_absorption_per_m is not None
-        medium = (
-            _on_device(m, m.UInt, lambda empty: _signed_medium(volume, empty))
-            if two_valued
-            else _on_device(m, m.UInt64, lambda empty: _packed_medium(volume, empty))
-        )
-        emission_scale = (
-            None
-            if scale is None
-            else _on_device(m, m.Float, lambda empty: _padded(scale, empty, "<f4"))
-        )
+        medium = _signed_medium(m, volume) if two_valued else _packed_medium(m, volume)
+        emission_scale = None if scale is None else m.Float(_flat32(scale))
         per_volume[m.__name__] = (medium, emission_scale)
     return per_volume[m.__name__]
 
