@@ -62,16 +62,16 @@ def _check_types(volume, camera, settings) -> None:
 def render_estimate(
     volume: Volume | SparseVolume, settings: RenderSettings, backend: str
 ) -> tuple[float, float]:
-    """(bytes, samples) a render needs at most: padded device grids plus per-ray state, and one
+    """(bytes, samples) a render needs at most: the device grids plus per-ray state, and one
     sample per step along the box diagonal for every ray (the upper bound: no skipping, no
     early termination)."""
     rays = float(settings.width * settings.height * settings.supersample**2)
     if isinstance(volume, SparseVolume):
         grid_bytes = brick_bytes(volume, packed=True)
     else:
-        padded = float(np.prod([n + 2 for n in volume.shape]))
+        voxels = float(np.prod(volume.shape))
         grids = 1 + (volume.emission_scale is not None) + (volume.sodium_fraction is not None)
-        grid_bytes = padded * (8 + 4 * (grids - 1 + len(volume.species)))
+        grid_bytes = voxels * (8 + 4 * (grids - 1 + len(volume.species)))
     samples = rays * upper_samples_per_ray(volume.shape, settings.step_voxels)
     return grid_bytes + rays * BYTES_PER_RAY[backend], samples
 

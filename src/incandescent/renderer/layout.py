@@ -1,6 +1,6 @@
 """Dense or sparse: which device layout a render marches (``RenderSettings.layout``).
 
-* ``dense``: every grid padded by one voxel (``backends.march``) — fastest per sample, memory
+* ``dense``: the grids as they are (``backends.march``) — fastest per sample, memory
   ∝ the whole box;
 * ``sparse``: 9³ bricks of the occupied 8³ leaves (``backends.bricks``) — memory ∝ the occupied
   part, one more lookup per sample; images equal the dense layout's (same values read, same
@@ -92,8 +92,7 @@ def _sparse_pays(volume: Volume, limits: Limits) -> bool:
     occupied = dilate_cells(volume.macrocells(LEAF).max_absorption > 0)  # the leaves kept, at most
     if float(occupied.mean()) < AUTO_SPARSE_FRACTION:
         return True
-    padded = float((volume.shape[0] + 2) * (volume.shape[1] + 2) * (volume.shape[2] + 2))
-    return 8.0 * padded > limits.memory_bytes()
+    return 8.0 * float(_voxels(volume)) > limits.memory_bytes()
 
 
 def _sparse_of(volume: Volume, rings: int = 0) -> SparseVolume:

@@ -103,7 +103,7 @@ class _Kernel:
         return self.m.Float(_table4(lut.values))
 
     def grid(self, key: tuple, grid: np.ndarray):
-        """A padded volume grid on the device, uploaded once per volume and ``key``."""
+        """A volume grid on the device, uploaded once per volume and ``key``."""
         if self.brick_index is not None:
             raise ValueError("the sparse layout carries T and κ only; use layout 'dense'")
         return _device_grid(self.m, self.volume, key, grid)
