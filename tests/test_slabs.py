@@ -98,3 +98,30 @@ def test_kappa_two_valued_in_each_slab_but_not_across_them_is_graded(three_threa
     kappa[8:, 1, 1] = 2.5
     two_valued = Volume.from_arrays(temperature, kappa).replace()
     assert two_valued.two_valued_absorption_per_m == 2.5
+
+
+@pytest.mark.parametrize("where", ["random", "none", "corner", "one"])
+def test_content_bounds_in_slabs_are_the_box_of_the_absorbing_voxels(three_threads, where):
+    """The box from per-layer and across-layer maxima equals the box of the voxels with κ > 0
+    (from their indices), −0 counting as no absorption; the whole box when none absorb."""
+    rng = np.random.default_rng(len(where))
+    shape = (13, 6, 9)
+    kappa = np.zeros(shape, dtype=np.float32)
+    if where == "random":
+        kappa[2:11, 1:4, 3:9] = rng.uniform(0.0, 2.0, (9, 3, 6)) * (rng.random((9, 3, 6)) > 0.7)
+        kappa[0, 0, 0] = -0.0
+    elif where == "corner":
+        kappa[-1, -1, -1] = 1.0
+    elif where == "one":
+        kappa[6, 2, 4] = 3e-30
+    volume = Volume.from_arrays(np.full(shape, 1500.0), kappa, voxel_size_m=0.5, origin_m=(1, 2, 3))
+    lo, hi = volume.content_bounds_m
+    absorbing = np.argwhere(kappa > 0)
+    if absorbing.size == 0:
+        expected = volume.bounds_m
+    else:
+        origin = np.array([1.0, 2.0, 3.0])
+        first, last = absorbing.min(axis=0), absorbing.max(axis=0)
+        expected = (origin + first * 0.5, origin + (last + 1) * 0.5)
+    np.testing.assert_array_equal(lo, expected[0])
+    np.testing.assert_array_equal(hi, expected[1])

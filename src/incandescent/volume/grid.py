@@ -160,16 +160,38 @@ class Volume(Placed):
     @property
     def content_bounds_m(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """World box around the voxels that absorb (and so may emit); the whole box if none do."""
-        occupied = np.asarray(self.absorption_per_m > 0)
-        plane = np.any(occupied, axis=2)
-        projections = (np.any(plane, axis=1), np.any(plane, axis=0), np.any(occupied, axis=(0, 1)))
-        per_axis = [np.flatnonzero(m) for m in projections]
-        if per_axis[0].size == 0:
+        box = self._absorbing_box()
+        if box is None:
             return self.bounds_m
-        lo = np.array([float(i[0]) for i in per_axis])
-        hi = np.array([float(i[-1] + 1) for i in per_axis])
         origin = np.asarray(self.origin_m)
-        return origin + lo * self.voxel_size_m, origin + hi * self.voxel_size_m
+        return origin + box[0] * self.voxel_size_m, origin + box[1] * self.voxel_size_m
+
+    def _absorbing_box(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """(first, last + 1) voxel index per axis of the voxels with κ > 0, or None if there are
+        none; computed once, from each x-layer's maximum and the maximum across the layers, slab
+        by slab (κ ≥ 0, so a maximum > 0 is a voxel that absorbs): no grid-sized mask (192³:
+        6–7 → 3–4 ms in a fresh process; 1 GB less at 1024³)."""
+        if "absorbing_box" not in self._cache:
+            kappa = self.absorption_per_m
+
+            def maxima(lo: int, hi: int) -> tuple[NDArray, NDArray]:
+                part = kappa[lo:hi]
+                return part.reshape(hi - lo, -1).max(axis=1), part.max(axis=0)
+
+            parts = map_slabs(maxima, kappa.shape[0], kappa.size)
+            plane = np.maximum.reduce([p[1] for p in parts])
+            layers = np.concatenate([p[0] for p in parts])
+            projections = (layers, plane.max(axis=1), plane.max(axis=0))
+            per_axis = [np.flatnonzero(m > 0) for m in projections]
+            self._cache["absorbing_box"] = (
+                None
+                if per_axis[0].size == 0
+                else (
+                    np.array([float(i[0]) for i in per_axis]),
+                    np.array([float(i[-1] + 1) for i in per_axis]),
+                )
+            )
+        return self._cache["absorbing_box"]
 
     @property
     def max_temperature_K(self) -> float:
