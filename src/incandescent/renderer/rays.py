@@ -172,10 +172,9 @@ def lane_order(width: int, height: int, supersample: int) -> tuple[NDArray, NDAr
     tiles_x, tiles_y = -(-w // TILE), -(-h // TILE)
     mx, my = _morton_decode(np.arange(TILE * TILE, dtype=np.uint32))  # one tile's lanes
     # tile t = i·tiles_y + j (down the columns) holds the lanes t·256 + (its Z-order in the tile)
-    x = (np.arange(tiles_x, dtype=np.uint32)[:, None, None] * TILE + mx) + np.zeros(
-        (1, tiles_y, 1), np.uint32
-    )
-    y = np.arange(tiles_y, dtype=np.uint32)[None, :, None] * TILE + my + np.zeros_like(x)
+    lanes = (tiles_x, tiles_y, TILE * TILE)
+    x = np.broadcast_to(np.arange(tiles_x, dtype=np.uint32)[:, None, None] * TILE + mx, lanes)
+    y = np.broadcast_to(np.arange(tiles_y, dtype=np.uint32)[None, :, None] * TILE + my, lanes)
     x, y = x.reshape(-1), y.reshape(-1)
     if w % TILE or h % TILE:
         keep = (x < w) & (y < h)
