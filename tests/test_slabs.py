@@ -37,8 +37,8 @@ def _brute_macrocells(kappa: np.ndarray, s: int) -> np.ndarray:
     return out
 
 
-@pytest.mark.parametrize("shape", [(17, 9, 23), (24, 8, 8), (3, 5, 4)])
-@pytest.mark.parametrize("s", [8, 4])
+@pytest.mark.parametrize("shape", [(17, 9, 23), (24, 8, 8), (3, 5, 4), (1, 12, 7)])
+@pytest.mark.parametrize("s", [8, 4, 3, 1])
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_macrocells_in_slabs_are_the_definition(three_threads, shape, s, dtype):
     rng = np.random.default_rng(sum(shape) + s)

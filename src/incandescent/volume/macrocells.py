@@ -43,13 +43,19 @@ def _extended_block_max(grid: NDArray, axis: int, s: int) -> NDArray:
     """Along ``axis``, cell c gets the maximum over voxels c·s − 1 … (c+1)·s (clamped to the grid).
 
     Applied to each axis in turn this is the maximum over each cell's box plus a one-voxel border,
-    because a maximum over a box is separable.
+    because a maximum over a box is separable. Elementwise maxima of every s-th layer (s strided
+    views, one pass each), not a reduction over a reshaped axis: NumPy reduces a short contiguous
+    axis (z) one cell at a time, ~10× slower on the (cx, cy, nz) pass.
     """
     g = np.moveaxis(grid, axis, 0)
     n = g.shape[0]
     cells, whole = -(-n // s), n // s
-    out = np.empty((cells,) + g.shape[1:], dtype=g.dtype)
-    out[:whole] = g[: whole * s].reshape((whole, s) + g.shape[1:]).max(axis=1)
+    out = np.empty((cells,) + g.shape[1:], dtype=np.float32)
+    if whole:
+        body = out[:whole]
+        np.maximum(g[0 : whole * s : s], g[min(1, s - 1) : whole * s : s], out=body)
+        for j in range(2, s):
+            np.maximum(body, g[j : whole * s : s], out=body)
     if whole < cells:  # a last, partial cell (no copy of the grid to pad it)
         np.max(g[whole * s :], axis=0, out=out[whole])
     end = (cells - 1) * s
@@ -62,7 +68,7 @@ def _slab_maxima(grid: NDArray, s: int, lo: int, hi: int) -> NDArray:
     """The extended block maxima of the cells whose voxels along x are lo..hi − 1 (lo a multiple
     of s): along x first (the big pass), with the voxels just outside the slab, then y and z."""
     n = grid.shape[0]
-    cells = _extended_block_max(np.asarray(grid[lo:hi], dtype=np.float32), 0, s)
+    cells = _extended_block_max(grid[lo:hi], 0, s)
     if lo > 0:  # the last voxel of the previous slab
         cells[0] = np.maximum(cells[0], grid[lo - 1])
     if hi < n:  # the first voxel of the next slab
