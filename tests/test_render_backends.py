@@ -168,6 +168,8 @@ def test_empty_radius_is_the_chebyshev_distance_to_the_nearest_occupied_cell():
     assert nearest.max() >= 3
     np.testing.assert_array_equal(empty_radius(occupied), nearest.reshape(occupied.shape))
     assert np.all(empty_radius(np.zeros((3, 4, 5), dtype=bool)) == 5)
+    full = empty_radius(np.ones((3, 4, 5), dtype=bool))
+    assert full.dtype == np.float32 and np.all(full == 0)
 
 
 @pytest.mark.parametrize(

@@ -33,8 +33,10 @@ class Case:
     threads: int | None  # None: all
     skip_empty: bool
     resolution_divisor: int = 1
-    #: each frame renders a new Volume of the same grids (device copies, macrocells and the
-    #: volume's checks are redone): what every `incandescent render` and animation frame pays
+    #: each frame renders a new Volume, built by the scene outside the timing as a file reader or
+    #: a simulation builds one (``Volume.from_arrays``: what validation and a κ made from T tell
+    #: are known; device copies, macrocells and the other scans are redone): what every
+    #: `incandescent render` and animation frame pays
     cold: bool = False
 
 
@@ -56,7 +58,8 @@ def _cases(backends: list[str], reference: bool, cold: bool = False) -> list[Cas
     return cases
 
 
-def _time_case(case: Case, volume, resolution: int) -> dict:
+def _time_case(case: Case, volume, resolution: int, fresh=None) -> dict:
+    """One timed render of ``volume`` (of ``fresh()``, built untimed, for a cold case)."""
     dr = drjit_module()
     all_threads = dr.thread_count()
     r = max(8, resolution // case.resolution_divisor)
@@ -64,7 +67,7 @@ def _time_case(case: Case, volume, resolution: int) -> dict:
     if case.threads:
         dr.set_thread_count(case.threads)
     if case.cold:
-        volume = volume.replace()  # a new Volume object: nothing cached for it yet
+        volume = fresh()  # a new Volume: nothing from the renders before cached for it
     try:
         start = time.perf_counter()
         camera = default_camera(volume.bounds_m)  # the whole box, empty space included
@@ -108,15 +111,16 @@ def _scene_report(
     label, volume = scene.label + " at {r}²", scene.build(size)
     cases = _cases(available_backends(), reference, cold)
     runs: dict[str, list[dict]] = {c.name: [] for c in cases}
+    fresh = (lambda: scene.build(size)) if cold else None
     for case in cases:  # warm-up: compile kernels, fill caches
-        _time_case(case, volume, resolution)
+        _time_case(case, volume, resolution, fresh)
     for round_ in range(repeat):
         for case in cases:
             if case.backend == "reference" and round_ > 0:
                 continue
             if progress is not None:
                 progress.print(f"  {name}: round {round_ + 1}/{repeat}: {case.name}", style="dim")
-            runs[case.name].append(_time_case(case, volume, resolution))
+            runs[case.name].append(_time_case(case, volume, resolution, fresh))
     results = [_summarise(c, runs[c.name]) for c in cases]
     return {
         "scene": name,

@@ -89,28 +89,38 @@ def build_macrocells(absorption_per_m: NDArray, cell_voxels: int = 8) -> Macroce
     return MacrocellGrid(out, s, empty_radius(out > 0))
 
 
+def _along(axis: int, part: slice) -> tuple[slice, ...]:
+    """The index selecting ``part`` of ``axis`` in a 3-D array."""
+    return tuple(part if a == axis else slice(None) for a in range(3))
+
+
 def dilate_cells(mask: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """``mask`` grown by one cell in every direction, diagonals included (Chebyshev radius 1)."""
-    out = mask.copy()
+    """``mask`` grown by one cell in every direction, diagonals included (Chebyshev radius 1):
+    grown by one along each axis in turn (a cube is separable)."""
+    out = mask
     for axis in range(3):
-        grown = np.moveaxis(out.copy(), axis, 0)
-        view = np.moveaxis(out, axis, 0)
-        grown[1:] |= view[:-1]
-        grown[:-1] |= view[1:]
-        out = np.moveaxis(grown, 0, axis)
+        grown = out.copy()
+        head, tail = _along(axis, slice(1, None)), _along(axis, slice(None, -1))
+        grown[head] |= out[tail]
+        grown[tail] |= out[head]
+        out = grown
     return out
 
 
 def empty_radius(occupied: NDArray[np.bool_]) -> NDArray[np.float32]:
     """Chebyshev distance (in cells) from each cell to the nearest occupied cell; 0 on occupied
-    cells; the largest side of the grid where no cell is occupied. Grown one ring at a time."""
+    cells; the largest side of the grid where no cell is occupied. Grown one ring at a time: a
+    cell's distance is the number of rings that have not reached it yet."""
     limit = max(occupied.shape)
-    radius = np.full(occupied.shape, float(limit), dtype=np.float32)
-    reached, r = occupied.copy(), 0
-    while r < limit and reached.any() and not reached.all():
-        radius[reached & (radius == limit)] = r
-        reached, r = dilate_cells(reached), r + 1
-    radius[reached & (radius == limit)] = r
+    if not occupied.any():
+        return np.full(occupied.shape, float(limit), dtype=np.float32)
+    radius = np.zeros(occupied.shape, dtype=np.float32)
+    reached = occupied
+    for _ in range(limit):
+        if reached.all():
+            break
+        radius += ~reached
+        reached = dilate_cells(reached)
     return radius
 
 
