@@ -17,6 +17,7 @@ from incandescent.renderer.backends.march import (
     _Kernel,
     _packed_medium,
     _signed_medium,
+    _threshold_K,
 )
 from incandescent.volume import Remap, Volume, build_macrocells
 from incandescent.volume.macrocells import empty_radius
@@ -122,6 +123,47 @@ def test_device_layouts_equal_the_host_ones(kind):
     strided = rng.uniform(0.0, 2.0, (5, 4, 3, 2))[..., 1]  # float64, not contiguous
     extra = _device_grid(m, two, ("test",), strided)
     np.testing.assert_array_equal(np.asarray(extra), strided.astype(np.float32).ravel())
+
+
+@pytest.mark.parametrize(
+    ("absorption", "cutoff_K"), [(None, 0.0), (None, 640.3), (1.5, 0.0), (1.5, 640.3)]
+)
+def test_kappa_made_from_t_absorbs_exactly_where_the_stored_t_reaches_its_threshold(
+    absorption, cutoff_K
+):
+    """κ made from T (the default, a constant, with or without a cutoff) is > 0 exactly where the
+    stored float32 T ≥ ``absorbing_from_K``, also for float64 temperatures (remapped) within a
+    float32 rounding of 500 K or of the cutoff; a κ grid or a ``replace`` copy does not claim it."""
+    rng = np.random.default_rng(4)
+    kelvin = rng.uniform(0.0, 1200.0, (9, 8, 7))
+    edges = [500.0, 640.3]
+    near = [v for e in edges for v in (e, np.nextafter(e, 0.0), np.nextafter(e, 1e4), e - 2e-5)]
+    kelvin.flat[: len(near)] = near
+    remap = Remap(scale=2.0, cutoff_K=cutoff_K)  # float64 remap: T is rounded to float32 after
+    vol = Volume.from_arrays(kelvin / 2.0, absorption=absorption, remap=remap)
+    threshold = vol.absorbing_from_K
+    assert threshold is not None and threshold == float(np.float32(threshold))
+    absorbs = vol.temperature_K >= np.float32(threshold)
+    assert 0 < absorbs.sum() < absorbs.size or (absorption is not None and cutoff_K == 0)
+    np.testing.assert_array_equal(vol.absorption_per_m > 0, absorbs)
+    assert vol.replace().absorbing_from_K is None
+    given = Volume.from_arrays(kelvin, absorption=np.where(kelvin > 500.0, 1.5, 0.0))
+    assert given.absorbing_from_K is None and given.two_valued_absorption_per_m == 1.5
+
+
+def test_kappa_made_from_t_renders_as_the_signed_layout(jit_backend):
+    """The kernel reading T alone and testing T ≥ 500 K per corner draws exactly what it draws
+    from the layout with κ = 0 in T's sign bit (the same volume without what construction knew),
+    voxels at exactly 500 K and just below it included."""
+    rng = np.random.default_rng(5)
+    values = np.array([0.0, 300.0, 500.0, np.nextafter(np.float32(500), 0), 900.0, 2200.0])
+    vol = Volume.from_arrays(rng.choice(values.astype(np.float32), (10, 12, 9)))
+    assert _threshold_K(vol) == 500.0 and _threshold_K(vol.replace()) is None
+    s = RenderSettings(width=24, height=20)
+    made, signed = (render(v, settings=s, backend=jit_backend) for v in (vol, vol.replace()))
+    assert made.xyz.max() > 0
+    np.testing.assert_array_equal(made.xyz, signed.xyz)
+    np.testing.assert_array_equal(made.transmittance, signed.transmittance)
 
 
 def test_corners_clamp_to_the_edge_voxel_as_the_padded_grid_did():

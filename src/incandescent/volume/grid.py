@@ -217,6 +217,13 @@ class Volume(Placed):
             self._cache["two_valued_kappa"] = float(peak) if two_valued else None
         return self._cache["two_valued_kappa"]
 
+    @property
+    def absorbing_from_K(self) -> float | None:
+        """T in K (a float32 value) from which a voxel absorbs — κ > 0 exactly where T ≥ it —
+        when κ was made from T by :meth:`from_arrays` (the default absorption, or a constant);
+        None when that is not known. The kernel then reads T alone."""
+        return self._cache.get("absorbing_from_K")
+
     def replace(self, **changes) -> Volume:
         """A copy with ``changes`` applied (e.g. placement)."""
         return replace(self, _cache={}, **changes)
@@ -287,6 +294,7 @@ class Volume(Placed):
         vacuum = temp < np.float64(remap.cutoff_K) if remap.cutoff_K > 0 else None  # in float64
         if vacuum is not None:
             temp[vacuum] = 0.0
+        temp = _f32(temp)  # κ made from T reads the T stored (``absorbing_from_K``)
         voxel = _voxel_size(voxel_size_m, temp.shape)
         side = voxel * max(temp.shape) if box_side_m is None else float(box_side_m)
         kappa, how, kappa0 = _absorption(absorption, temp, side, source, adopt)
@@ -314,6 +322,7 @@ class Volume(Placed):
         if kappa0 is not None:  # κ ∈ {0, κ₀} by construction: no scan for other values needed
             min_K = max(remap.cutoff_K, DEFAULT_ABSORPTION_MIN_K if absorption is None else 0.0)
             volume._cache["two_valued_kappa"] = _made_peak(volume, kappa0, peak_K, min_K)
+            volume._cache["absorbing_from_K"] = _made_threshold_K(absorption, remap)
         if peak_K is not None:  # the validation's maximum: no second pass for the hottest voxel
             volume._cache["max_temperature_K"] = peak_K if peak_K >= remap.cutoff_K else 0.0
         return volume
@@ -477,6 +486,19 @@ def _made_peak(volume: Volume, kappa0: float, peak_K: float | None, min_K: float
     else:
         peak = kappa0 if peak_K >= min_K else 0.0
     return peak if peak > 0 else None
+
+
+def _made_threshold_K(absorption, remap: Remap) -> float | None:
+    """For κ made from T: the float32 t with κ > 0 exactly where the stored T ≥ t. The default
+    κ is κ₀ where that T ≥ DEFAULT_ABSORPTION_MIN_K (vacuum voxels hold T = 0); a constant κ₀ is
+    everywhere (t = 0) or, with a cutoff c, where T ≥ c before rounding, i.e. where the stored T
+    ≥ c rounded to float32 (rounding is monotone; vacuum 0 stays below it). None if that is 0."""
+    if absorption is None:
+        return DEFAULT_ABSORPTION_MIN_K
+    if remap.cutoff_K <= 0:
+        return 0.0
+    threshold = float(np.float32(remap.cutoff_K))
+    return threshold if threshold > 0 else None
 
 
 def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] | None:
