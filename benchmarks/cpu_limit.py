@@ -9,6 +9,8 @@ graded-κ plume (``scenes.soot_plume``) seen by `incandescent render`'s default 
 * ``warm``: ``render()`` of the same Volume again (march time, and the whole call);
 * ``cold``: ``render()`` of a new Volume, built untimed by ``soot_plume`` as a file reader builds
   one (``Volume.from_arrays``): what each ``incandescent render`` and each frame of a sequence pays;
+  warm and cold are each the median of 5 frames, alternating, after an untimed render, as the C++
+  programs time themselves (a single frame right after a C++ program ran measured ~10 % slower);
 * ``cli``: one ``incandescent render`` of the plume saved as ``.npz`` (wall time, and its march from
   ``--stats``) next to ``incandescent version`` (wall time): the command around the march.
 
@@ -68,6 +70,22 @@ def build(source: Path, out: Path) -> Path:
 def run_program(args: list[str]) -> dict:
     out = subprocess.run(args, check=True, capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
+
+
+def time_frames(volume, camera, settings, size: int, frames: int = 5) -> tuple[tuple, tuple]:
+    """(warm, cold) medians of (march s, whole render() s) over ``frames`` alternating renders
+    after an untimed one: warm renders ``volume`` again, cold a new ``soot_plume(size)`` built
+    untimed."""
+    time_render(volume, camera, settings)
+    warm, cold = [], []
+    for _ in range(frames):
+        warm.append(time_render(volume, camera, settings))
+        cold.append(time_render(soot_plume(size), camera, settings))
+
+    def medians(runs: list) -> tuple[float, float]:
+        return statistics.median(r[0] for r in runs), statistics.median(r[1] for r in runs)
+
+    return medians(warm), medians(cold)
 
 
 def time_render(volume, camera, settings) -> tuple[float, float]:
@@ -133,8 +151,9 @@ def main() -> None:
             print(f"round {r + 1}/{a.rounds}", file=sys.stderr)
             runs["ref"].append(run_program([str(ref), tmp]))
             runs["limit"].append(run_program([str(limit), tmp, "simdskip"]))
-            runs["warm"].append(time_render(volume, camera, settings))
-            runs["cold"].append(time_render(soot_plume(a.size), camera, settings))
+            warm, cold = time_frames(volume, camera, settings, a.size)
+            runs["warm"].append(warm)
+            runs["cold"].append(cold)
             runs["cli"].append(time_cli(folder / "plume.npz", folder))
     report = summarise(runs, a)
     report["samples"]["renderer"] = samples
