@@ -66,7 +66,7 @@ class _Kernel:
             self.medium, self.scale = _device_grids(m, vol)
         kappa0 = vol.two_valued_absorption_per_m
         self.kappa0 = None if kappa0 is None else np.float32(kappa0)
-        #: κ = κ₀ where T ≥ this (K), 0 below: the medium is T alone (``_threshold_medium``)
+        #: κ = κ₀ where T ≥ this (K), 0 below: the medium is T alone (``_threshold_K``)
         self.kappa_from_K = None if self.brick_index is not None else _threshold_K(vol)
         self.first_table = lut  # every table shares its spacing (checked in table())
         self.lut_size, self.lut_t_min = lut.size, np.float32(lut.t_min_K)
