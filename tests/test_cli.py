@@ -495,3 +495,21 @@ def test_animate_lets_frames_reuse_freed_memory(tmp_path, monkeypatch):
     result = _run(*args, "--height", 16)
     assert result.exit_code == 0, result.output
     assert calls == [1]
+
+
+@pytest.mark.parametrize("terminal", [True, False])
+def test_render_progress_bar_only_on_a_terminal(monkeypatch, terminal):
+    """On a terminal the render shows a transient bar; elsewhere the report is a no-op and
+    nothing is written (rich's progress module is not even needed)."""
+    import io
+
+    from rich.console import Console
+
+    from incandescent import cli
+
+    out = io.StringIO()
+    monkeypatch.setattr(cli, "console", Console(file=out, force_terminal=terminal, width=60))
+    with cli._render_progress() as report:
+        for fraction in (0.25, 1.0):
+            report(fraction)
+    assert ("rendering" in out.getvalue()) is terminal
