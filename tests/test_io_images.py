@@ -268,3 +268,17 @@ def test_exr_extra_channels_from_non_contiguous_arrays_keep_their_layout(tmp_pat
     rgb = np.zeros((3, 4, 3), dtype=np.float32)
     _, _, extra = read_exr(write_exr(tmp_path / "t.exr", rgb, extra_channels={"A": alpha}))
     np.testing.assert_array_equal(extra["A"], alpha)
+
+
+def test_float32_exr_channels_are_written_as_they_are(tmp_path):
+    """float32 RGB (a strided view) and extra channels reach the file bit for bit, the float32
+    extremes included — no float64 round trip, no overflow check needed."""
+    rng = np.random.default_rng(7)
+    big = rng.random((3, 5, 4)).astype(np.float32)
+    big[0, 0, :3] = [np.finfo(np.float32).max, np.finfo(np.float32).smallest_subnormal, np.inf]
+    rgb = big[..., :3]  # not contiguous
+    depth = rng.random((3, 5)).astype(np.float32)
+    write_exr(tmp_path / "f32.exr", rgb, extra_channels={"Z": depth})
+    back, _, extra = read_exr(tmp_path / "f32.exr")
+    assert back.tobytes() == np.ascontiguousarray(rgb).tobytes()
+    assert extra["Z"].tobytes() == depth.tobytes()

@@ -62,10 +62,21 @@ def _check_metadata(metadata: Mapping[str, str] | None) -> dict[str, str]:
 # --- OpenEXR ------------------------------------------------------------------------------
 
 
+def _real(value: ArrayLike, name: str) -> NDArray:
+    """A real array: float32 as it is, anything else as float64 (``_validate.real_array``)."""
+    arr = np.asarray(value)
+    return arr if arr.dtype == np.float32 else _validate.real_array(arr, name)
+
+
 def _float_image(value: ArrayLike, name: str, shape: tuple[int, ...] | None) -> NDArray[np.float32]:
-    arr = _validate.real_array(value, name)
+    """``value`` as a C-ordered float32 image (OpenEXR reads the buffer in C order): float32 as
+    it is (nothing to narrow), anything else through float64, refusing values beyond the float32
+    range."""
+    arr = _real(value, name)
     if shape is not None and arr.shape != shape:
         raise ValueError(f"{name} must have shape {shape}; got {arr.shape}")
+    if arr.dtype == np.float32:
+        return np.ascontiguousarray(arr)
     with np.errstate(over="ignore"):
         out = arr.astype(np.float32)
     overflow = int((np.isinf(out) & np.isfinite(arr)).sum())
@@ -75,18 +86,14 @@ def _float_image(value: ArrayLike, name: str, shape: tuple[int, ...] | None) -> 
 
 
 def _exr_channels(rgb: ArrayLike, extra: Mapping[str, ArrayLike] | None) -> dict[str, NDArray]:
-    arr = _validate.real_array(rgb, "rgb")
+    arr = _real(rgb, "rgb")
     if arr.ndim != 3 or arr.shape[2] != 3 or 0 in arr.shape:
         raise ValueError(f"rgb must have shape (H, W, 3) with H, W >= 1; got {arr.shape}")
-    channels = {
-        c: np.ascontiguousarray(_float_image(arr[..., i], "rgb", None)) for i, c in enumerate(_RGB)
-    }
+    channels = {c: _float_image(arr[..., i], "rgb", None) for i, c in enumerate(_RGB)}
     for name, values in (extra or {}).items():
         if not isinstance(name, str) or not name or name in _RGB:
             raise ValueError(f"extra channel names must be non-empty and not R, G, B; got {name!r}")
-        channels[name] = np.ascontiguousarray(  # OpenEXR reads the buffer in C order
-            _float_image(values, f"extra channel {name!r}", arr.shape[:2])
-        )
+        channels[name] = _float_image(values, f"extra channel {name!r}", arr.shape[:2])
     return channels
 
 
