@@ -216,3 +216,13 @@ def test_blackbody_white_is_warm():
 def test_adaptation_errors(call, error, match):
     with pytest.raises(error, match=match):
         call()
+
+
+@pytest.mark.parametrize("shape", [(3,), (4, 3), (7, 5, 3), (2, 3, 4, 3)])
+def test_rgb_conversions_are_the_matrix_product_for_any_leading_shape(shape):
+    """Images are converted as one (N, 3) product: the values of ``x @ M.T`` to the bit."""
+    x = np.random.default_rng(len(shape)).random(shape) * 500.0
+    for space in ("srgb", "rec2020", "acescg"):
+        matrices = rgb_space(space)
+        np.testing.assert_array_equal(xyz_to_rgb(x, space), x @ matrices.xyz_to_rgb_matrix.T)
+        np.testing.assert_array_equal(rgb_to_xyz(x, space), x @ matrices.rgb_to_xyz_matrix.T)
