@@ -198,7 +198,7 @@ def image_lanes(width: int, height: int, supersample: int) -> NDArray[np.int64]:
     transpose)."""
     x, y, _ = (a.astype(np.int64) for a in lane_order(width, height, supersample))
     s = supersample
-    if s == 1:  # one ray per pixel: no integer divisions (512²: ~7 → ~2 ms, once per process)
+    if s == 1:  # one ray per pixel: no integer divisions (512²: 2.9 → 1.6 ms, once per process)
         position = y * width + x
     else:
         position = ((y // s) * width + x // s) * (s * s) + (x % s) * s + y % s
