@@ -499,9 +499,10 @@ def test_animate_lets_frames_reuse_freed_memory(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("terminal", [True, False])
 def test_render_progress_bar_only_on_a_terminal(monkeypatch, terminal):
-    """On a terminal the render shows a transient bar; elsewhere the report is a no-op and
-    nothing is written (rich's progress module is not even needed)."""
+    """On a terminal the render shows a transient bar; elsewhere the report is a no-op, nothing
+    is written and rich's progress module is not imported (made unimportable here)."""
     import io
+    import sys
 
     from rich.console import Console
 
@@ -509,6 +510,8 @@ def test_render_progress_bar_only_on_a_terminal(monkeypatch, terminal):
 
     out = io.StringIO()
     monkeypatch.setattr(cli, "console", Console(file=out, force_terminal=terminal, width=60))
+    if not terminal:
+        monkeypatch.setitem(sys.modules, "rich.progress", None)  # importing it raises
     with cli._render_progress() as report:
         for fraction in (0.25, 1.0):
             report(fraction)

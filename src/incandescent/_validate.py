@@ -25,6 +25,13 @@ def real_array(value: ArrayLike, name: str) -> NDArray[np.float64]:
     return arr.astype(np.float64, copy=False)
 
 
+def real_grid(value: ArrayLike, name: str) -> NDArray:
+    """A real number array to be stored in float32: float32 input as it is (widening it first
+    would only cost two passes), any other real dtype as float64 (:func:`real_array`)."""
+    arr = np.asarray(value)
+    return arr if arr.dtype == np.float32 else real_array(arr, name)
+
+
 def finite(arr: NDArray, name: str) -> NDArray:
     """Reject NaN and infinity, naming the first offending value and its index."""
     bad = ~np.isfinite(arr)

@@ -136,5 +136,4 @@ def rgb_to_xyz(rgb: ArrayLike, space: str | RGBSpace = DEFAULT_SPACE) -> NDArray
 def _times_transposed(arr: NDArray[np.float64], matrix: NDArray[np.float64]) -> NDArray[np.float64]:
     """``arr @ matrix.T`` for ``[..., 3]`` arrays as one (N, 3) product: the same values as
     NumPy's stacked product of an image's rows, in less time (a 512² image 2.4 → 1.1 ms)."""
-    flat = arr.reshape(-1, arr.shape[-1]) if arr.ndim > 2 else arr
-    return (flat @ matrix.T).reshape(arr.shape)
+    return (arr.reshape(-1, arr.shape[-1]) @ matrix.T).reshape(arr.shape)

@@ -62,17 +62,11 @@ def _check_metadata(metadata: Mapping[str, str] | None) -> dict[str, str]:
 # --- OpenEXR ------------------------------------------------------------------------------
 
 
-def _real(value: ArrayLike, name: str) -> NDArray:
-    """A real array: float32 as it is, anything else as float64 (``_validate.real_array``)."""
-    arr = np.asarray(value)
-    return arr if arr.dtype == np.float32 else _validate.real_array(arr, name)
-
-
 def _float_image(value: ArrayLike, name: str, shape: tuple[int, ...] | None) -> NDArray[np.float32]:
     """``value`` as a C-ordered float32 image (OpenEXR reads the buffer in C order): float32 as
     it is (nothing to narrow), anything else through float64, refusing values beyond the float32
     range."""
-    arr = _real(value, name)
+    arr = _validate.real_grid(value, name)
     if shape is not None and arr.shape != shape:
         raise ValueError(f"{name} must have shape {shape}; got {arr.shape}")
     if arr.dtype == np.float32:
@@ -86,7 +80,7 @@ def _float_image(value: ArrayLike, name: str, shape: tuple[int, ...] | None) -> 
 
 
 def _exr_channels(rgb: ArrayLike, extra: Mapping[str, ArrayLike] | None) -> dict[str, NDArray]:
-    arr = _real(rgb, "rgb")
+    arr = _validate.real_grid(rgb, "rgb")
     if arr.ndim != 3 or arr.shape[2] != 3 or 0 in arr.shape:
         raise ValueError(f"rgb must have shape (H, W, 3) with H, W >= 1; got {arr.shape}")
     channels = {c: _float_image(arr[..., i], "rgb", None) for i, c in enumerate(_RGB)}

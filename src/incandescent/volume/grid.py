@@ -317,7 +317,7 @@ class Volume(Placed):
             rule += f", vacuum below {remap.cutoff_K:g} K" if remap.cutoff_K else ""
         velocity = _velocity(velocity_m_s, temp.shape, source)
         volume = cls(
-            _f32(temp), _f32(kappa), scale, origin, voxel, how, sodium, fractions, rule, velocity
+            temp, _f32(kappa), scale, origin, voxel, how, sodium, fractions, rule, velocity
         )
         if kappa0 is not None:  # κ ∈ {0, κ₀} by construction: no scan for other values needed
             min_K = max(remap.cutoff_K, DEFAULT_ABSORPTION_MIN_K if absorption is None else 0.0)
@@ -338,7 +338,7 @@ def _temperature(
     chunked pass (its min and max); anything else is remapped in float64."""
     arr = np.asarray(value)
     if arr.dtype != np.float32 or remap.offset != 0 or remap.scale != 1:
-        temp = _remapped_temperature(_grid(value, source), remap, source)
+        temp = _remapped_temperature(_grid(value, source)[0], remap, source)
         _check_ceiling(temp, remap, source)
         return temp, None
     _check_shape(arr, source)
@@ -398,15 +398,17 @@ def _finite_range(arr: NDArray, name: str) -> tuple[float, float]:
     return low, high
 
 
-def _grid(value: ArrayLike, name: str) -> NDArray:
-    """A finite 3-D grid: float32 input as it is (every grid is stored in float32, so widening it
-    first would only cost two passes), any other real dtype as float64."""
-    arr = np.asarray(value)
-    if arr.dtype != np.float32:
-        arr = _validate.real_array(arr, name)
+def _grid(
+    value: ArrayLike, name: str, like: tuple[int, ...] | None = None
+) -> tuple[NDArray, float]:
+    """A finite 3-D grid (``_validate.real_grid``: float32 as it is) of shape ``like`` when
+    given, and its minimum."""
+    arr = _validate.real_grid(value, name)
     _check_shape(arr, name)
-    _finite_range(arr, name)
-    return arr
+    if like is not None and arr.shape != like:
+        raise ValueError(f"{name} grid has shape {arr.shape}; expected the temperature's {like}")
+    low, _ = _finite_range(arr, name)
+    return arr, low
 
 
 def _remapped_temperature(
@@ -512,16 +514,7 @@ def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] 
 def _checked_grid(value, shape, name: str, source: str, adopt: bool = False) -> NDArray[np.float32]:
     """A non-negative finite grid of ``shape`` as a new writable float32 array (or with ``adopt``
     the input itself, see :func:`_handed_over`)."""
-    where = f"{source}: {name}"
-    arr = np.asarray(value)
-    if arr.dtype != np.float32:
-        arr = _validate.real_array(arr, where)
-    _check_shape(arr, where)
-    if arr.shape != shape:
-        raise ValueError(
-            f"{source}: {name} grid has shape {arr.shape}; expected the temperature's {shape}"
-        )
-    low, _ = _finite_range(arr, where)
+    arr, low = _grid(value, f"{source}: {name}", shape)
     if low < 0:
         index = tuple(int(i) for i in np.argwhere(arr < 0)[0])
         raise ValueError(f"{source}: {name} must be >= 0; got {arr[index]:g} at voxel {index}")
@@ -534,9 +527,7 @@ def _velocity(value, shape, source: str) -> NDArray[np.float32] | None:
     """A finite (nx, ny, nz, 3) velocity grid in m/s as float32, or None."""
     if value is None:
         return None
-    arr = np.asarray(value)
-    if arr.dtype != np.float32:
-        arr = _validate.real_array(arr, f"{source}: velocity")
+    arr = _validate.real_grid(value, f"{source}: velocity")
     if arr.shape != tuple(shape) + (3,):
         raise ValueError(
             f"{source}: velocity grid has shape {arr.shape}; expected {tuple(shape) + (3,)} "

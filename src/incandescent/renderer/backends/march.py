@@ -358,7 +358,7 @@ def _threshold_K(volume) -> np.float32 | None:
     the CPU maps without a copy — no layout pass and no second grid (256³: 4.6 ms and 64 MB)."""
     if volume.two_valued_absorption_per_m is None:
         return None
-    threshold = getattr(volume, "absorbing_from_K", None)
+    threshold = volume.absorbing_from_K
     return None if threshold is None else np.float32(threshold)
 
 
