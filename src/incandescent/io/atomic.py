@@ -99,13 +99,16 @@ def check_output(
     overwrite: bool = False,
     suffixes: Sequence[str] | None = None,
     what: str = "output",
+    inputs: Sequence[PathLike] = (),
 ) -> Path:
     """The file to write for output ``path``, checked before any work (see module doc).
 
     Raises ``ValueError`` for an unsupported suffix, ``FileExistsError`` for an existing file
     without ``overwrite``, ``FileNotFoundError``/``NotADirectoryError`` for a missing folder,
     ``IsADirectoryError`` for a folder, and :class:`OutputError` for a device, FIFO, socket or a
-    read-only or unwritable folder. Returns the path to write (a symlink resolved).
+    read-only or unwritable folder — and also when the output is one of ``inputs`` (by any
+    name: a symlink, a hard link, ``./``), whatever ``overwrite`` says: a run never replaces
+    what it reads. Returns the path to write (a symlink resolved).
     """
     _validate_flag(overwrite, "overwrite")
     shown = Path(os.fspath(path))
@@ -115,9 +118,28 @@ def check_output(
             f"{shown}: unsupported {what} format ({got}); expected {', '.join(suffixes)}"
         )
     target = _resolved(shown)
+    _check_not_input(target, shown, inputs)
     _check_existing(target, overwrite, shown)
     _check_parent(target)
     return target
+
+
+def same_file(a: PathLike, b: PathLike) -> bool:
+    """Whether ``a`` and ``b`` name one file (symlinks, hard links and ``..`` seen through)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist (yet): compare where they would be
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def _check_not_input(target: Path, shown: Path, inputs: Sequence[PathLike]) -> None:
+    for source in inputs:
+        if same_file(target, source):
+            named = "" if os.fspath(source) == os.fspath(shown) else f" (as {source})"
+            raise OutputError(
+                f"cannot write {shown}: it is this run's input{named}; an input is never "
+                "replaced, even with --overwrite — write to another file"
+            )
 
 
 def _validate_flag(value: object, name: str) -> None:
@@ -169,12 +191,38 @@ class _Staged:
     committed: bool = False
 
 
-def _stage(path: PathLike, write: Callable[[Path], None], overwrite: bool) -> _Staged:
+Verify = Callable[[Path], None]
+
+
+def _verified(target: Path, tmp: Path, verify: Verify | None) -> None:
+    """Run ``verify(tmp)`` (a read-back of the written file); any failure is an OutputError.
+
+    This is what catches writers that do not report a failed write (a library that ignores a
+    full disk): the staged file must read back before it may replace anything."""
+    if not tmp.is_file():
+        raise OutputError(f"cannot write {target}: the writer produced no file")
+    if verify is None:
+        return
+    try:
+        verify(tmp)
+    except KeyboardInterrupt:
+        raise
+    except Exception as error:
+        raise OutputError(
+            f"cannot write {target}: the written file does not read back ({error}); the disk "
+            "may be full — nothing was replaced"
+        ) from None
+
+
+def _stage(
+    path: PathLike, write: Callable[[Path], None], overwrite: bool, verify: Verify | None = None
+) -> _Staged:
     target = check_output(path, overwrite)
     sweep_stale_temps(target)
     tmp = _temp_path(target)
     try:
         write(tmp)
+        _verified(target, tmp, verify)
     except OSError as error:
         tmp.unlink(missing_ok=True)
         if isinstance(error, OutputError):
@@ -251,14 +299,23 @@ def all_or_nothing() -> Iterator[OutputBatch]:
     batch.commit()
 
 
-def atomic_write(path: PathLike, write: Callable[[Path], None], overwrite: bool = False) -> Path:
+def atomic_write(
+    path: PathLike,
+    write: Callable[[Path], None],
+    overwrite: bool = False,
+    verify: Verify | None = None,
+) -> Path:
     """Call ``write(tmp_path)`` then move the result to ``path``; clean up on any failure.
+
+    ``verify(tmp_path)``, when given, reads the written file back before it is committed and
+    raises if it is damaged; writers whose library may not report a failed write (OpenVDB on a
+    full disk) pass one, so a truncated file never replaces anything.
 
     Returns the final path (a symlink resolved). Raises as :func:`check_output` does, and
     :class:`OutputError` naming the path when writing fails (disk full, I/O error). Inside
     :func:`all_or_nothing` the file is only staged, and committed at the end of the block.
     """
-    item = _stage(path, write, overwrite)
+    item = _stage(path, write, overwrite, verify)
     batch = _BATCH.get()
     if batch is not None:
         batch.staged.append(item)
