@@ -34,9 +34,13 @@ def test_verify_sees_the_staged_bytes_and_lets_a_good_file_through(tmp_path):
 
 
 def test_verify_failure_inside_a_batch_commits_nothing(tmp_path):
-    with pytest.raises(OutputError), all_or_nothing():
-        atomic_write(tmp_path / "image.png", _write(b"png"))
-        atomic_write(tmp_path / "grid.vdb", _write(b"vdb"), verify=_refuse)
+    def both():
+        with all_or_nothing():
+            atomic_write(tmp_path / "image.png", _write(b"png"))
+            atomic_write(tmp_path / "grid.vdb", _write(b"vdb"), verify=_refuse)
+
+    with pytest.raises(OutputError):
+        both()
     assert os.listdir(tmp_path) == []
 
 
