@@ -39,10 +39,19 @@ def available_memory_bytes() -> int:
 
 
 def gib(n_bytes: float) -> str:
-    """``n_bytes`` in GiB (or MiB when small), for messages."""
-    if n_bytes < GIB:
-        return f"{n_bytes / 1024**2:.0f} MiB"
-    return f"{n_bytes / GIB:.1f} GiB"
+    """``n_bytes`` for messages: GiB to 0.1, else MiB, KiB or bytes to three significant digits
+    (a small limit never reads "0 MiB")."""
+    if n_bytes >= GIB:
+        return f"{n_bytes / GIB:.1f} GiB"
+    for unit, size in (("MiB", 1024**2), ("KiB", 1024)):
+        if n_bytes >= size:
+            return f"{_significant(n_bytes / size)} {unit}"
+    return f"{n_bytes:.0f} bytes"
+
+
+def _significant(value: float) -> str:
+    """``value`` (1 ≤ value < 1024) to three significant digits, without an exponent."""
+    return f"{value:.0f}" if value >= 100 else f"{value:.3g}"
 
 
 @dataclass(frozen=True)

@@ -789,9 +789,10 @@ def simulate(
     with _guarded():
         limits = _limits(max_memory, None)
         changes = _settings_changes(settings_file)
+        named = None if settings_file is None else str(settings_file)
+        settings = fire_settings.from_changes(preset_name, changes, named)
         if seed is not None:
-            changes["seed"] = seed
-        settings = fire_settings.preset(preset_name, **changes)
+            settings = fire_settings.from_changes(preset_name, changes | {"seed": seed}, "--seed")
         suffix = "." + frame_format.lstrip(".")
         name = resolve_backend(backend)
         if render_to is not None:
@@ -824,11 +825,9 @@ def _settings_changes(path: Path | None) -> dict:
     """FireSettings fields from a TOML/JSON file (validated with the preset's)."""
     if path is None:
         return {}
-    import json
-    import tomllib
+    from incandescent.simulation.settings import read_settings_file
 
-    text = path.read_bytes()
-    return tomllib.loads(text.decode()) if path.suffix.lower() == ".toml" else json.loads(text)
+    return read_settings_file(path)
 
 
 @contextlib.contextmanager

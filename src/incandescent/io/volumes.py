@@ -117,9 +117,29 @@ def _npz_header(archive: zipfile.ZipFile, name: str, where: str) -> ArrayHeader:
     return header
 
 
+#: The first bytes of a zip archive (a local file header, or the end record of an empty one).
+ZIP_SIGNATURES = (b"PK\x03\x04", b"PK\x05\x06")
+
+
+def check_npz_signature(path: Path, what: str = "volume file") -> None:
+    """Refuse an ``.npz`` that is neither a zip archive nor a ``.npy`` array by its first bytes
+    (NumPy would try to unpickle it and say "pickled data"), naming the file and ``what``."""
+    from numpy.lib import format as npy
+
+    with open(path, "rb") as handle:
+        head = handle.read(len(npy.MAGIC_PREFIX))
+    if not (head.startswith(ZIP_SIGNATURES) or head == npy.MAGIC_PREFIX):
+        raise ValueError(
+            f"{path}: not an .npz archive (its first bytes are no zip signature); expected a "
+            f"{what} written by numpy.savez"
+        )
+
+
 def _np_load(path: Path, limits: Limits):
     if path.suffix.lower() == ".npy":
         _check_npy(path, limits)
+    elif path.suffix.lower() == ".npz":
+        check_npz_signature(path)
     try:
         return np.load(path, allow_pickle=False)
     except _CORRUPT as error:

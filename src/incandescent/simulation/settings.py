@@ -3,20 +3,33 @@ files), and the presets ``candle``, ``torch``, ``campfire`` and ``explosion``.
 
 Physical quantities are in SI units (m, s, K, m/s); positions of sources and obstacles are
 fractions of the domain (0..1 along x, y, z; y is up).
+
+Validation is strict, as for scene files (``config.load``): no bool or string is taken for a
+number, no list for a flag. Every way in — a preset with changes, a settings file — goes through
+:func:`from_changes` (JSON-mode validation, the scene loader's). Settings the solver cannot
+model are refused naming the key: a source centred outside the domain, ``t_max_K`` beyond the
+emission tables, and gas driven faster than sound (the solver is incompressible, a low-Mach
+model): buoyant rise over the domain's height, a nozzle's jet, the front's expansion.
 """
 
 from __future__ import annotations
 
 import difflib
-from typing import Literal
+import json
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from incandescent.volume.grid import T_CEILING_K
 
 Fraction3 = tuple[float, float, float]
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
 
 class Source(_Model):
@@ -60,7 +73,9 @@ class FireSettings(_Model):
     )
     t_air_K: float = Field(default=300.0, gt=0)
     t_ignition_K: float = Field(default=1000.0, gt=0)
-    t_max_K: float = Field(default=2000.0, gt=0)
+    t_max_K: float = Field(
+        default=2000.0, gt=0, le=T_CEILING_K, description="the emission tables end at 1e5 K"
+    )
     cooling_K_s: float = Field(
         default=3000.0, ge=0, description="c_T of the radiative cooling term"
     )
@@ -91,7 +106,52 @@ class FireSettings(_Model):
             )
         if min(self.domain_m) <= 0:
             raise ValueError(f"domain_m must be positive; got {self.domain_m}")
+        _check_sources_inside(self)
+        _check_below_sound(self)
         return self
+
+    def sound_speed_m_s(self) -> float:
+        """The speed of sound in air at ``t_air_K`` (m/s): the solver's bound on gas speeds."""
+        return SOUND_M_S_PER_SQRT_K * math.sqrt(self.t_air_K)
+
+
+#: c = √(γ R T / M) for air (γ = 1.4, M = 0.02897 kg/mol): 20.05 m/s per √K (347 m/s at 300 K).
+SOUND_M_S_PER_SQRT_K = 20.05
+
+
+def _check_sources_inside(settings: FireSettings) -> None:
+    """Each source's centre lies in the domain (fractions 0..1): elsewhere it burns nothing."""
+    size = " × ".join(f"{d:g}" for d in settings.domain_m)
+    for index, source in enumerate(settings.sources):
+        if not all(0.0 <= c <= 1.0 for c in source.centre):
+            raise ValueError(
+                f"sources.{index}.centre: {list(source.centre)} is outside the domain; a centre "
+                f"is given in fractions 0..1 of domain_m ({size} m along x, y up, z)"
+            )
+
+
+def _check_below_sound(settings: FireSettings) -> None:
+    """Refuse settings that drive the gas faster than sound (the solver models slow flames)."""
+    c = settings.sound_speed_m_s()
+    where = f"faster than sound ({c:.0f} m/s at t_air_K); the solver models slow "
+    where += "(incompressible) flames"
+    height, heat = settings.domain_m[1], settings.t_max_K - settings.t_air_K
+    rise = math.sqrt(2.0 * settings.buoyancy_m_s2_K * heat * height)
+    if rise > c:
+        most = c * c / (2.0 * heat * height)
+        raise ValueError(
+            f"buoyancy_m_s2_K: {settings.buoyancy_m_s2_K:g} lifts gas at t_max_K to about "
+            f"{rise:.3g} m/s over the domain's {height:g} m height, {where}: use at most {most:.3g}"
+        )
+    expansion = (settings.density_ratio - 1.0) * settings.flame_speed_m_s
+    if expansion > c:
+        raise ValueError(
+            f"flame_speed_m_s: {settings.flame_speed_m_s:g} × (density_ratio "
+            f"{settings.density_ratio:g} − 1) expands the burnt gas at {expansion:.3g} m/s, {where}"
+        )
+    for index, source in enumerate(settings.sources):
+        if source.jet_m_s > c:
+            raise ValueError(f"sources.{index}.jet_m_s: {source.jet_m_s:g} m/s is {where}")
 
 
 PRESETS: dict[str, FireSettings] = {
@@ -129,15 +189,102 @@ PRESETS: dict[str, FireSettings] = {
 }
 
 
+#: Keys that drive the gas (accelerations, expansion, confinement, soot's weight) or let one
+#: step carry it further: where a run goes non-finite, the culprit is among them.
+DRIVING_KEYS = (
+    "buoyancy_m_s2_K",
+    "soot_weight_m_s2",
+    "soot_rate_per_s",
+    "vorticity",
+    "flame_speed_m_s",
+    "density_ratio",
+    "cfl",
+)
+
+
+def likely_unstable(settings: FireSettings) -> str:
+    """The driving keys set above 10× their largest preset value, as ``key = value`` (else all
+    of them, and ``max_steps_per_frame``), for the message of a run gone non-finite."""
+    high = [
+        f"{key} = {getattr(settings, key):g} (at most {_preset_max(key):g} in the presets)"
+        for key in DRIVING_KEYS
+        if getattr(settings, key) > 10.0 * _preset_max(key)
+    ]
+    if high:
+        return ", ".join(high)
+    return f"one of {', '.join(DRIVING_KEYS)} too high, or max_steps_per_frame too low"
+
+
+def _preset_max(key: str) -> float:
+    return max(float(getattr(p, key)) for p in PRESETS.values())
+
+
 def preset(name: str, **changes) -> FireSettings:
     """A preset's settings with ``changes`` applied (validated; a bad one is a one-line
     ``ValueError`` naming the key)."""
+    return from_changes(name, changes)
+
+
+def from_changes(name: str, changes: Mapping[str, Any], source: str | None = None) -> FireSettings:
+    """Preset ``name`` with ``changes`` (from ``source``: a file, a flag) over its keys, validated
+    strictly in JSON mode, as scene files are; errors are one line naming the key."""
     if name not in PRESETS:
         raise ValueError(f"unknown fire preset {name!r}; expected one of: {', '.join(PRESETS)}")
+    data = PRESETS[name].model_dump(mode="json") | dict(changes)
+    where = f"fire settings ({name}{', from ' + source if source else ''})"
     try:
-        return FireSettings(**(PRESETS[name].model_dump() | changes))
+        text = json.dumps(data, default=_jsonable, allow_nan=True)
+        return FireSettings.model_validate_json(text)
+    except RecursionError:
+        raise ValueError(f"{where}: nested too deeply to be fire settings") from None
     except ValidationError as error:
-        raise ValueError(_one_line(error, f"fire settings ({name})")) from None
+        raise ValueError(_one_line(error, where)) from None
+
+
+def _jsonable(value: Any) -> Any:
+    """JSON for the values Python callers pass beyond JSON's types (tuples, NumPy numbers)."""
+    if isinstance(value, (tuple, set)):
+        return list(value)
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    if isinstance(value, BaseModel):
+        return value.model_dump(mode="json")
+    return str(value)
+
+
+SETTINGS_SUFFIXES = (".toml", ".json")
+
+
+def read_settings_file(path: str | Path) -> dict[str, Any]:
+    """The table of FireSettings keys in a ``.toml``/``.json`` file; every problem (missing,
+    not a file, not UTF-8, a syntax error, nesting too deep, not a table) is one ``ValueError``
+    (or ``OSError``) naming the file and what was expected."""
+    from incandescent.config.load import _parse_json, _parse_toml
+    from incandescent.io.volumes import check_input_file
+
+    path = Path(path)
+    if path.suffix.lower() not in SETTINGS_SUFFIXES:
+        got = repr(path.suffix) if path.suffix else "no suffix"
+        raise ValueError(
+            f"{path}: unsupported settings format ({got}); expected a .toml or .json file of "
+            "FireSettings keys"
+        )
+    check_input_file(path, "settings file")
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise ValueError(f"{path}: not UTF-8 text ({error}); expected TOML or JSON") from None
+    parse = _parse_toml if path.suffix.lower() == ".toml" else _parse_json
+    try:
+        data = parse(text, path)
+    except RecursionError:
+        raise ValueError(f"{path}: nested too deeply to be fire settings") from None
+    if not isinstance(data, dict):
+        raise ValueError(
+            f'{path}: expected a table of FireSettings keys (e.g. {{"seed": 3}}); got a '
+            f"{type(data).__name__}"
+        )
+    return data
 
 
 def _one_line(error: ValidationError, source: str) -> str:
@@ -151,6 +298,13 @@ def _one_line(error: ValidationError, source: str) -> str:
     elif item["type"] == "value_error":  # a model-level rule: its message says it all
         problem = str(item["msg"]).removeprefix("Value error, ")
     else:
-        problem = f"{item['msg']}; got {item.get('input')!r}"
+        value = item.get("input")
+        problem = f"{item['msg']}{_about(item['loc'])}; got {value!r} ({type(value).__name__})"
     more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
     return f"{source}: {key + ': ' if key else ''}{problem}{more}"
+
+
+def _about(loc: tuple) -> str:
+    """`` (the field's description)`` for a top-level key that has one, else ``""``."""
+    field = FireSettings.model_fields.get(str(loc[0])) if len(loc) == 1 else None
+    return f" ({field.description})" if field is not None and field.description else ""

@@ -76,11 +76,38 @@ class StepReport:
 def grid_shape(settings: FireSettings, resolution: int) -> tuple[tuple[int, int, int], float]:
     """(cells along x, y, z; cell side h in m): ``resolution`` cells on the longest side, the
     others in proportion, each a multiple of 8 (the multigrid halves them)."""
+    if isinstance(resolution, bool) or not isinstance(resolution, int | np.integer):
+        raise TypeError(f"resolution must be an integer 8..1024; got {resolution!r}")
     if not 8 <= resolution <= 1024:
         raise ValueError(f"resolution must be 8..1024 cells; got {resolution}")
     h = max(settings.domain_m) / resolution
+    _check_cells(settings.domain_m, h, resolution)
     shape = tuple(max(8, 8 * round(d / h / 8)) for d in settings.domain_m)
     return shape, h  # type: ignore[return-value]
+
+
+#: Smallest cell side, m: below ~1 µm gas is no continuum (the mean free path in a flame is
+#: ~0.5 µm); largest, m: the renderer's bound on a voxel (``VOXEL_SIZE_RANGE_M``).
+CELL_RANGE_M = (1e-6, 1e6)
+#: Fewest cells along a side of the domain as given (it is then widened to a multiple of 8).
+MIN_SIDE_CELLS = 4
+
+
+def _check_cells(domain_m, h: float, resolution: int) -> None:
+    """Refuse a domain whose cells are outside ``CELL_RANGE_M`` or a side under 4 cells."""
+    low, high = CELL_RANGE_M
+    if not low <= h <= high:
+        raise ValueError(
+            f"domain_m {list(domain_m)} at resolution {resolution} makes cells of {h:.3g} m; "
+            f"a cell must be {low:g}..{high:g} m (below 1 µm gas is no continuum)"
+        )
+    for axis, side in zip("xyz", domain_m, strict=True):
+        if side / h < MIN_SIDE_CELLS:
+            raise ValueError(
+                f"domain_m: the {axis} side ({side:g} m) is {side / h:.2g} cells at resolution "
+                f"{resolution} (cells of {h:.3g} m); each side needs at least {MIN_SIDE_CELLS} "
+                f"cells: make it at least {MIN_SIDE_CELLS * h:.3g} m or raise the resolution"
+            )
 
 
 class FireSolver:
