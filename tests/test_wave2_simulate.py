@@ -314,8 +314,8 @@ def test_a_run_gone_non_finite_names_the_frame_and_key_and_leaves_no_folder(tmp_
     path = _settings(tmp_path, "vorticity = 1e30")
     _error(_simulate(out, "--settings", path, "--frames", 3),
            "frame 1", "non-finite", "vorticity = 1e+30", "frame 1 was not written")  # fmt: skip
-    assert not out.exists()
-    out.mkdir()  # a folder the user made stays, as it was: empty
+    assert not (tmp_path / "new").exists()  # neither the folder nor the parent it made
+    out.mkdir(parents=True)  # a folder the user made stays, as it was: empty
     _error(_simulate(out, "--settings", path, "--frames", 3), "frame 1", "vorticity")
     assert out.is_dir() and list(out.iterdir()) == []
 

@@ -115,8 +115,8 @@ def simulate(
     if isinstance(frames, bool) or not isinstance(frames, int) or not 1 <= frames <= MAX_FRAMES:
         raise ValueError(f"frames must be an integer 1..{MAX_FRAMES}; got {frames!r}")
     _check_memory(settings, resolution, backend, limits)
-    run = _Run(Path(out_dir), _identity(settings, resolution), suffix)
-    run.solver = FireSolver(settings, resolution, backend)
+    solver = FireSolver(settings, resolution, backend)
+    run = _Run(Path(out_dir), _identity(settings, resolution), suffix, solver)
     created = _make_folder(run.out_dir)
     try:
         done, state = run.start(overwrite, frames)
@@ -129,11 +129,11 @@ def simulate(
 MAX_FRAMES = 100_000
 
 
-def _make_folder(out_dir: Path) -> bool:
-    """Make ``out_dir`` (and its parents); whether this call made it."""
+def _make_folder(out_dir: Path) -> list[Path]:
+    """Make ``out_dir`` (and its parents); the folders this call made, deepest first."""
     if out_dir.exists() and not out_dir.is_dir():
         raise NotADirectoryError(f"{out_dir}: is not a folder; the frames need a folder")
-    created = not out_dir.exists()
+    created = [p for p in (out_dir, *out_dir.absolute().parents) if not p.exists()]
     out_dir.mkdir(parents=True, exist_ok=True)
     return created
 
@@ -146,7 +146,7 @@ class _Run:
     out_dir: Path
     identity: str
     suffix: str
-    solver: FireSolver = None  # type: ignore[assignment]
+    solver: FireSolver
     fresh: bool = False
     committed: int = 0
 
@@ -217,15 +217,16 @@ class _Run:
     def _save(self, frame: int, state: FireState) -> None:
         _save_checkpoint(self.out_dir, self.identity, self.suffix, frame, state, self.solver.ops)
 
-    def tidy(self, created: bool) -> None:
+    def tidy(self, created: list[Path]) -> None:
         """After a failure before any frame: remove the checkpoint this run started (frame 0)
-        and the folder if this run made it."""
-        if self.committed or not self.fresh:
+        and the folders this run made (``created``, deepest first; each only if empty)."""
+        if self.committed:
             return
-        (self.out_dir / CHECKPOINT).unlink(missing_ok=True)
-        if created:
+        if self.fresh:
+            (self.out_dir / CHECKPOINT).unlink(missing_ok=True)
+        for folder in created:
             with contextlib.suppress(OSError):
-                self.out_dir.rmdir()
+                folder.rmdir()
 
 
 def _check_finite(fields: dict[str, np.ndarray], frame: int, settings: FireSettings) -> None:
