@@ -200,7 +200,9 @@ class _Run:
         cannot be written takes the frame with it (the next run would not know it as its own)."""
         fields = frame_fields(self.solver, state)
         _check_finite(fields, frame, self.solver.settings)
-        path = _write_frame(self.solver, fields, frame_path(self.out_dir, frame, self.suffix))
+        path = _write_frame(
+            self.solver, fields, frame, frame_path(self.out_dir, frame, self.suffix)
+        )
         try:
             self._save(frame, state)
         except BaseException as error:
@@ -414,7 +416,7 @@ def _check_memory(settings: FireSettings, resolution: int, backend: str, limits=
     )
 
 
-def _write_frame(solver: FireSolver, fields: dict[str, np.ndarray], path: Path) -> Path:
+def _write_frame(solver: FireSolver, fields: dict[str, np.ndarray], frame: int, path: Path) -> Path:
     """Write a frame atomically (``save_volume``); a failure names the frame and its file."""
     from incandescent.io.output import save_volume
 
@@ -422,7 +424,6 @@ def _write_frame(solver: FireSolver, fields: dict[str, np.ndarray], path: Path) 
         return save_volume(_volume(solver, fields), path, overwrite=os.path.lexists(path))
     except (OSError, RuntimeError) as error:
         message = str(error) if str(path) in str(error) else f"cannot write {path}: {error}"
-        frame = int(path.stem.rsplit("_", 1)[1])
         raise OutputError(f"frame {frame}: {message}") from None
 
 
