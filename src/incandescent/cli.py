@@ -151,7 +151,25 @@ OPT_SHUTTER = typer.Option(
 )
 OPT_VELOCITY_GRID = typer.Option(None, help="Velocity grid for motion blur [velocity, vel, v].")
 OPT_VELOCITY_UNITS = typer.Option(None, help="Velocity grid units: m/s | voxels/frame [m/s].")
-OPT_VELOCITY_SCALE = typer.Option(None, help="Factor on the velocity grid (Blender's) [1].")
+
+
+def _nonnegative(flag: str) -> Callable[[float | None], float | None]:
+    """A typer callback refusing a negative or non-finite value of ``flag`` as it is parsed,
+    before the command reads anything (every command sharing the option gets it)."""
+
+    def check(value: float | None) -> float | None:
+        if value is not None and not 0.0 <= value < float("inf"):  # also refuses nan
+            raise _fail(f"{flag} must be a finite number >= 0; got {value!r}")
+        return value
+
+    return check
+
+
+OPT_VELOCITY_SCALE = typer.Option(
+    None,
+    help="Factor on the velocity grid (Blender's), >= 0 [1].",
+    callback=_nonnegative("--velocity-scale"),
+)
 OPT_MAX_MEMORY = typer.Option(None, help=MAX_MEMORY_HELP)
 OPT_MAX_SAMPLES = typer.Option(None, help=MAX_SAMPLES_HELP)
 
@@ -250,7 +268,7 @@ def render(
         out = scene.output
         if out.path is None:
             raise ValueError("no output: give -o OUT.exr|.png or [output] path in the scene file")
-        _check_outputs(out.path, out.stats, out.overwrite)
+        _check_outputs(out.path, out.stats, out.overwrite, _inputs(source, scene))
         backend = _start_backends(scene.volume.path, out.backend)
         from incandescent.volume import Volume  # noqa: F811 - at run time, not only for types
 
@@ -388,16 +406,28 @@ def _overrides(f: dict) -> dict:
     }
 
 
-def _check_outputs(image: Path, stats: Path | None, overwrite: bool) -> None:
+def _check_outputs(
+    image: Path, stats: Path | None, overwrite: bool, inputs: list[Path] | None = None
+) -> None:
     """Fail before rendering, not after: unsupported suffix, existing file without --overwrite,
-    missing or read-only folder, a folder or device in the way (``io.atomic.check_output``)."""
-    from incandescent.io.atomic import check_output
+    missing or read-only folder, a folder or device in the way, an output that is one of
+    ``inputs`` by any name (``io.atomic.check_output``), the stats file the image itself."""
+    from incandescent.io.atomic import check_output, same_file
     from incandescent.io.formats import IMAGE_SUFFIXES, STATS_SUFFIXES
 
-    target = check_output(image, overwrite, IMAGE_SUFFIXES, "image")
+    inputs = inputs or []
+    target = check_output(image, overwrite, IMAGE_SUFFIXES, "image", inputs=inputs)
     if stats is not None:
-        if check_output(stats, overwrite, STATS_SUFFIXES, "stats") == target:
+        written = check_output(stats, overwrite, STATS_SUFFIXES, "stats", inputs=inputs)
+        if same_file(written, target):
             raise ValueError(f"--stats {stats} is the image output itself; give another file")
+
+
+def _inputs(source: Path, scene) -> list[Path]:
+    """The files a render reads: the command's argument (a volume or a scene file), the volume
+    the scene names, and its line table."""
+    table = scene.render.line_table
+    return [source, scene.volume.path, *([] if table is None else [Path(table)])]
 
 
 def _stats(image, start: float) -> dict:

@@ -17,6 +17,12 @@ PROJECTIONS = ("perspective", "orthographic")
 #: float32 ray positions still resolve a voxel; narrower views are refused rather than rendered
 #: empty.
 MIN_FOV_DEG = 0.01
+#: Eye and target closer than this fraction of their distance from the world origin coincide: a
+#: view direction from positions that differ only in their last few float64 bits is noise.
+COINCIDE_RELATIVE = 1e-9
+#: Bounds whose centre is within this many float64 roundings of 0 are centred on 0 (the box's
+#: corners are ``origin + index · voxel``, each rounded; their mean is then off by ~1e-17 m).
+CENTRE_ROUNDINGS = 8
 
 
 def _vec3(value: ArrayLike, name: str) -> tuple[float, float, float]:
@@ -63,10 +69,13 @@ class Camera:
     def basis(self) -> tuple[NDArray, NDArray, NDArray]:
         """Orthonormal (right, up, forward) vectors; errors on degenerate input."""
         forward = np.subtract(self.target, self.eye)
-        distance = np.linalg.norm(forward)
+        distance = float(np.linalg.norm(forward))
         scale = max(float(np.linalg.norm(self.eye)), float(np.linalg.norm(self.target)))
-        if distance <= 1e-12 * scale or distance == 0.0:
-            raise ValueError(f"camera eye and target coincide at {self.eye}; they must differ")
+        if not distance > COINCIDE_RELATIVE * scale or distance == 0.0:
+            raise ValueError(
+                f"camera eye and target coincide: eye {self.eye}, target {self.target} "
+                f"({distance:.3g} m apart); they must differ"
+            )
         forward = forward / distance
         right = np.cross(forward, self.up)
         norm = np.linalg.norm(right)
@@ -118,9 +127,18 @@ def _film_coordinates(width: int, height: int, s: int) -> tuple[NDArray, NDArray
 def default_camera(bounds_m: tuple[ArrayLike, ArrayLike], fov_deg: float = 40.0) -> Camera:
     """A three-quarter view from the front-right, slightly above, framing the whole box."""
     lo, hi = (np.asarray(b, dtype=np.float64) for b in bounds_m)
-    centre = (lo + hi) / 2.0
+    centre = box_centre(lo, hi)
     radius = np.linalg.norm(hi - lo) / 2.0
     direction = np.array([0.55, 0.35, 0.76])
     direction /= np.linalg.norm(direction)
     distance = 1.05 * radius / np.sin(np.radians(fov_deg) / 2.0)
     return Camera(eye=tuple(centre + distance * direction), target=tuple(centre), fov_deg=fov_deg)
+
+
+def box_centre(lo: NDArray, hi: NDArray) -> NDArray:
+    """The centre of the box ``lo``–``hi`` (m), exactly 0 on axes where it differs from 0 only by
+    the rounding of the corners (a box centred on the origin has its centre there, not at
+    −2.8e−17 m)."""
+    centre = (lo + hi) / 2.0
+    noise = CENTRE_ROUNDINGS * np.finfo(np.float64).eps * (np.abs(lo) + np.abs(hi))
+    return np.where(np.abs(centre) <= noise, 0.0, centre)

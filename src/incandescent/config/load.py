@@ -168,7 +168,7 @@ def _message(error: ValidationError, data: dict, source: str, overrides) -> str:
         dotted = ".".join(keys)
         if dotted not in lines:
             problem = _problem(item, keys, data, exact=len(keys) == len(item["loc"]))
-            if overrides and _lookup(overrides, keys) not in (_MISSING, None):
+            if overrides and _given(_lookup(overrides, keys)):
                 problem += " (from an override)"
             lines[dotted] = f"{dotted}: {problem}" if dotted else problem
     shown = list(lines.values())[:MAX_REPORTED]
@@ -226,6 +226,13 @@ def _lookup(data: Any, keys: list[str]) -> Any:
     return data
 
 
+def _given(value: Any) -> bool:
+    """Whether an override holds a value (a table of flags not given, all None, holds none)."""
+    if isinstance(value, Mapping):
+        return any(_given(v) for v in value.values())
+    return value is not _MISSING and value is not None
+
+
 def _problem(item: Mapping[str, Any], keys: list[str], data: dict, exact: bool) -> str:
     kind = item["type"]
     if kind == "extra_forbidden":
@@ -239,7 +246,19 @@ def _problem(item: Mapping[str, Any], keys: list[str], data: dict, exact: bool) 
     expected = _describe(_annotation(keys))
     if expected is None:
         return str(item["msg"])
+    bound = _BOUNDS.get(kind)
+    if bound is not None:  # a constraint such as ge=0: say it, not only the type
+        expected = f"{expected} {bound[1]} {item['ctx'][bound[0]]!r}"
     return f"expected {expected}; got {value!r} ({type(value).__name__})"
+
+
+#: pydantic's bound error types → (its context key, the comparison in words).
+_BOUNDS = {
+    "greater_than_equal": ("ge", ">="),
+    "greater_than": ("gt", ">"),
+    "less_than_equal": ("le", "<="),
+    "less_than": ("lt", "<"),
+}
 
 
 def _unknown_key(keys: list[str]) -> str:

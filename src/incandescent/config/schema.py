@@ -322,5 +322,29 @@ class Scene(_Section):
             return fixed
         given = self.camera.given()
         fov = given.get("fov_deg", _dataclass_default(Camera, "fov_deg"))
-        base = default_camera(volume.content_bounds_m, fov_deg=fov)  # type: ignore[arg-type]
+        bounds = volume.content_bounds_m
+        base = default_camera(bounds, fov_deg=fov)  # type: ignore[arg-type]
+        eye, target = given.get("eye", base.eye), given.get("target", base.target)
+        _check_view(eye, target, given, bounds)  # type: ignore[arg-type]
         return base.replace(**given)
+
+
+#: Eye and target closer than this fraction of the gas box's diagonal coincide.
+COINCIDE_OF_BOX = 1e-9
+
+
+def _check_view(eye: Vec3, target: Vec3, given: dict, bounds: tuple) -> None:
+    """Refuse a camera whose eye is its target (within a billionth of the gas box's diagonal, m),
+    naming the scene keys: a default target is the centre of the gas."""
+    diagonal = float(np.linalg.norm(np.subtract(bounds[1], bounds[0])))
+    distance = float(np.linalg.norm(np.subtract(target, eye)))
+    if distance > COINCIDE_OF_BOX * diagonal and distance > 0.0:
+        return
+    eye_key = "camera.eye" if "eye" in given else "the default camera.eye (a three-quarter view)"
+    target_key = (
+        "camera.target" if "target" in given else "the default camera.target (the gas's centre)"
+    )
+    raise ValueError(
+        f"{eye_key} {tuple(eye)} coincides with {target_key} {tuple(target)} ({distance:.3g} m "
+        "apart); give camera.eye and camera.target apart"
+    )

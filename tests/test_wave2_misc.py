@@ -1,0 +1,143 @@
+"""Issue 25, smaller surfaces: an output that is an input, the default camera's target, a
+negative --velocity-scale, strict ``info --json`` and non-finite voxels, NUL bytes in paths, and
+scene-file paths that leave the scene's folder. Every input here is made by the test."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from incandescent.cli import app
+
+runner = CliRunner()
+SMALL = ("--width", "8", "--height", "8")
+
+
+def _run(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+def _one_line_error(result, *words: str) -> str:
+    """The command failed with exit status 2 and one line naming ``words``; the line."""
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output, result.output
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error:"), result.output
+    for word in words:
+        assert word in lines[0], (word, lines[0])
+    return lines[0]
+
+
+@pytest.fixture
+def volume(tmp_path) -> Path:
+    """A 10³ grid with hot gas in its middle 6³ voxels (the content box is not the whole box)."""
+    temp = np.zeros((10, 10, 10))
+    temp[2:8, 2:8, 2:8] = 1500.0
+    path = tmp_path / "box.npz"
+    np.savez(path, temperature=temp)
+    return path
+
+
+def _scene(folder: Path, text: str, name: str = "scene.toml") -> Path:
+    path = folder / name
+    path.write_text(text)
+    return path
+
+
+# --- 1. an output that is the input by another name ------------------------------------------
+
+
+@pytest.mark.parametrize("how", ["symlink", "hardlink", "dotdot"])
+def test_render_never_replaces_its_input_volume_even_with_overwrite(tmp_path, volume, how):
+    before = volume.read_bytes()
+    if how == "symlink":
+        out = tmp_path / "link.png"
+        out.symlink_to(volume)
+    elif how == "hardlink":
+        out = tmp_path / "hard.png"
+        os.link(volume, out)
+    else:  # a symlink reached through a sub-folder and ..
+        (tmp_path / "sub").mkdir()
+        (tmp_path / "box.png").symlink_to(volume.name)
+        out = tmp_path / "sub" / ".." / "box.png"
+    result = _run("render", volume, "-o", out, "--overwrite", *SMALL)
+    _one_line_error(result, "input", str(out))
+    assert volume.read_bytes() == before
+
+
+def test_render_stats_never_replace_the_scene_file_or_the_volume(tmp_path, volume):
+    scene = _scene(tmp_path, '[volume]\npath = "box.npz"\n')
+    scene_bytes, volume_bytes = scene.read_bytes(), volume.read_bytes()
+    for target in (scene, volume):
+        link = tmp_path / f"stats_{target.stem}.json"
+        link.symlink_to(target)
+        out = tmp_path / "out.png"
+        result = _run("render", scene, "-o", out, "--stats", link, "--overwrite", *SMALL)
+        _one_line_error(result, "input", str(link))
+        assert not out.exists()
+    assert scene.read_bytes() == scene_bytes and volume.read_bytes() == volume_bytes
+
+
+def test_the_image_as_the_scene_file_by_a_hard_link_is_refused(tmp_path, volume):
+    scene = _scene(tmp_path, '[volume]\npath = "box.npz"\n[output]\npath = "same.png"\n')
+    os.link(scene, tmp_path / "same.png")
+    result = _run("render", scene, "--overwrite", *SMALL)
+    _one_line_error(result, "input")
+    assert scene.read_text().startswith("[volume]")
+
+
+# --- 2. the default camera's target, and an eye that is the target ----------------------------
+
+
+def test_the_default_target_of_gas_centred_on_the_origin_is_exactly_the_origin(volume):
+    from incandescent import api
+    from incandescent.camera.camera import default_camera
+
+    vol = api.Volume.from_arrays(np.load(volume)["temperature"])
+    assert default_camera(vol.content_bounds_m).target == (0.0, 0.0, 0.0)
+    rng = np.random.default_rng(25)
+    for _ in range(200):  # boxes symmetric about 0 whose corners are each rounded
+        voxel, first = rng.uniform(0.001, 0.3), int(rng.integers(0, 50))
+        n = int(rng.integers(first + 1, 200))
+        origin = -n * voxel / 2
+        lo, hi = origin + first * voxel, origin + (n - first) * voxel
+        camera = default_camera((np.full(3, lo), np.full(3, hi)))
+        assert camera.target == (0.0, 0.0, 0.0), (lo, hi)
+
+
+@pytest.mark.parametrize("eye", ["[0.0, 0.0, 0.0]", "[1e-17, -2.8e-17, 0.0]"])
+def test_a_scene_eye_at_the_default_target_is_refused_naming_the_keys(tmp_path, volume, eye):
+    scene = _scene(tmp_path, f'[volume]\npath = "box.npz"\n[camera]\neye = {eye}\n')
+    result = _run("render", scene, "-o", tmp_path / "o.png", *SMALL)
+    _one_line_error(result, "camera.eye", "camera.target", "coincide")
+    assert not (tmp_path / "o.png").exists()
+
+
+def test_eye_and_target_a_rounding_apart_coincide_and_say_where_they_come_from(tmp_path, volume):
+    far = 1e3
+    text = f"[camera]\neye = [{far}, 0.0, 0.0]\ntarget = [{far * (1 + 1e-15)}, 0.0, 0.0]\n"
+    scene = _scene(tmp_path, '[volume]\npath = "box.npz"\n' + text)
+    line = _one_line_error(_run("render", scene, "-o", tmp_path / "o.png", *SMALL), "coincide")
+    assert "camera" in line and "override" not in line  # no flag was given
+
+
+# --- 3. negative --velocity-scale --------------------------------------------------------------
+
+
+@pytest.mark.parametrize("value", ["-1", "-1e-30", "nan", "inf", "-inf"])
+@pytest.mark.parametrize("command", ["render", "animate"])
+def test_a_bad_velocity_scale_names_the_flag_before_reading(tmp_path, value, command):
+    missing = tmp_path / "never_read.npz"  # does not exist: the flag is refused first
+    source = str(missing) if command == "render" else str(tmp_path / "f_*.npz")
+    result = _run(command, source, "-o", tmp_path / "out.png", f"--velocity-scale={value}")
+    _one_line_error(result, "--velocity-scale", ">= 0")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_negative_velocity_scale_in_a_scene_file_says_the_bound(tmp_path, volume):
+    scene = _scene(tmp_path, '[volume]\npath = "box.npz"\nvelocity_scale = -2.0\n')
+    _one_line_error(_run("render", scene, "-o", tmp_path / "o.png"), "volume.velocity_scale", ">=")
