@@ -4,6 +4,7 @@ scene-file paths that leave the scene's folder. Every input here is made by the 
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -141,3 +142,73 @@ def test_a_bad_velocity_scale_names_the_flag_before_reading(tmp_path, value, com
 def test_a_negative_velocity_scale_in_a_scene_file_says_the_bound(tmp_path, volume):
     scene = _scene(tmp_path, '[volume]\npath = "box.npz"\nvelocity_scale = -2.0\n')
     _one_line_error(_run("render", scene, "-o", tmp_path / "o.png"), "volume.velocity_scale", ">=")
+
+
+# --- 4. info: strict JSON, and non-finite voxels warned about as render refuses them -----------
+
+
+def _strict(text: str) -> dict:
+    def refuse(token: str):
+        raise AssertionError(f"not JSON: {token}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def _nan_npz(tmp_path: Path) -> Path:
+    temp = np.full((4, 4, 4), 1500.0)
+    temp[1, 2, 3] = np.nan
+    velocity = np.zeros((4, 4, 4, 3))
+    velocity[0, 0, 0] = (np.inf, 0.0, -np.inf)
+    path = tmp_path / "nan.npz"
+    np.savez(path, temperature=temp, velocity=velocity, density=np.ones((4, 4, 4)))
+    return path
+
+
+def test_info_names_every_grid_with_non_finite_voxels_as_render_refuses(tmp_path):
+    path = _nan_npz(tmp_path)
+    text = " ".join(_run("info", path).output.split())
+    assert "temperature: 1 of 64 values are NaN or infinite (first nan at index (1, 2, 3))" in text
+    assert "velocity: 2 of 192 values are NaN or infinite" in text
+    assert "density:" not in text
+    report = _strict(_run("info", "--json", path).stdout)
+    finite = {g["name"]: g["finite"] for g in report["grids"]}
+    assert finite == {"temperature": False, "velocity": False, "density": True}
+    assert sum("NaN or infinite" in w for w in report["warnings"]) == 2
+    render = _run("render", path, "-o", tmp_path / "o.png", *SMALL)
+    assert render.exit_code == 2 and "must be finite" in render.output  # the same rule
+
+
+def test_info_json_of_a_vdb_with_nan_and_inf_is_strict_json(tmp_path):
+    from incandescent.io import openvdb
+
+    if openvdb.problem() is not None:
+        pytest.skip(str(openvdb.problem()))
+    import subprocess
+    import textwrap
+
+    path = tmp_path / "nan.vdb"
+    script = f"""
+        import pyopenvdb as vdb
+        g = vdb.FloatGrid(); g.name = "temperature"
+        a = g.getAccessor()
+        for ijk, v in (((0, 0, 0), 1500.0), ((1, 0, 0), float("nan")), ((2, 0, 0), 1200.0)):
+            a.setValueOn(ijk, v)
+        v = vdb.Vec3SGrid(); v.name = "velocity"
+        b = v.getAccessor()
+        b.setValueOn((0, 0, 0), (float("nan"), 0.0, 0.0))
+        b.setValueOn((1, 0, 0), (float("inf"), 1.0, 1.0))
+        vdb.write("{path}", grids=[g, v])
+    """
+    python = openvdb.interpreter()
+    done = subprocess.run([python, "-c", textwrap.dedent(script)], env=openvdb._clean_env(),
+                          capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    result = _run("info", "--json", path)
+    assert result.exit_code == 0, result.output
+    report = _strict(result.stdout)
+    grids = {g["name"]: g for g in report["grids"]}
+    assert grids["temperature"]["sum"] is None and grids["velocity"]["max"] is None
+    assert not grids["temperature"]["finite"] and not grids["velocity"]["finite"]
+    assert any("shown as null" in w for w in report["warnings"])
+    assert any(w.startswith("velocity: holds NaN or infinite") for w in report["warnings"])
+    assert "velocity: holds NaN" in " ".join(_run("info", path).output.split())

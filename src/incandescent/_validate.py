@@ -34,10 +34,19 @@ def real_grid(value: ArrayLike, name: str) -> NDArray:
 
 def finite(arr: NDArray, name: str) -> NDArray:
     """Reject NaN and infinity, naming the first offending value and its index."""
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        raise ValueError(f"{name} must be finite; got {_first_bad(arr, bad)}")
+    found = nonfinite(arr)
+    if found is not None:
+        raise ValueError(f"{name} must be finite; got {found[1]}")
     return arr
+
+
+def nonfinite(arr: NDArray) -> tuple[int, str] | None:
+    """(how many values are NaN or ±inf, the first of them and its index), or None when every
+    value is finite: the rule :func:`finite` enforces, for reports that only warn."""
+    bad = ~np.isfinite(arr)
+    if not bad.any():
+        return None
+    return int(np.count_nonzero(bad)), _first_bad(arr, bad)
 
 
 def positive_temperature(value: ArrayLike, name: str = "temperature_K") -> NDArray[np.float64]:

@@ -562,23 +562,71 @@ def info(
                 _say(f"{path}: a scene file; its volume is {spec.path}")
             path, axes = spec.path, axes or spec.axes
         grids = describe(path, axes)
-    warnings = file_warnings(path, grids) + [w for g in grids for w in _grid_warnings(g)]
+        bad = _nonfinite_voxels(path, axes, grids)
+    warnings = file_warnings(path, grids) + [w for g in grids for w in _grid_warnings(g, bad)]
     if as_json:
-        report = {"path": str(path), "grids": [g.as_json() for g in grids], "warnings": warnings}
-        typer.echo(json.dumps(report, indent=2))
+        records = [g.as_json() | {"finite": g.name not in bad} for g in grids]
+        records, nulls = _strict_json(records)
+        report = {"path": str(path), "grids": records, "warnings": warnings + nulls}
+        typer.echo(json.dumps(report, indent=2, allow_nan=False))
         return
     _info_table(path, grids)
     for text in warnings:
         console.print(f"[yellow]note:[/] {escape(text)}", highlight=False, soft_wrap=True)
 
 
-def _grid_warnings(g) -> list[str]:
+def _grid_warnings(g, nonfinite: dict[str, str] | None = None) -> list[str]:
     from incandescent.volume.presets import kelvin_warning
 
     warning = None
-    if g.value_max is not None:
+    if g.value_max is not None and np.isfinite(g.value_max):
         warning = kelvin_warning(g.name, np.array([g.value_max]))
-    return [t for t in (warning, g.note and f"{g.name}: {g.note}") if t]
+    bad = (nonfinite or {}).get(g.name)
+    bad = bad and f"{g.name}: {bad}; render refuses a grid it uses with NaN or infinite values"
+    return [t for t in (warning, g.note and f"{g.name}: {g.note}", bad) if t]
+
+
+def _nonfinite_voxels(path: Path, axes: str | None, grids) -> dict[str, str]:
+    """Grid name → what is not finite in it (``_validate.nonfinite``, the rule render applies):
+    a dense file's grids are read again one at a time (its summary skips NaN); a .vdb's
+    summary (OpenVDB's range and sum over the active values) shows NaN and ±inf itself."""
+    from incandescent import _validate
+    from incandescent.io.formats import VDB_SUFFIXES
+    from incandescent.io.volumes import open_grids
+
+    readable = [g for g in grids if g.readable]
+    if path.suffix.lower() in VDB_SUFFIXES:
+        stats = {g.name: (g.value_min, g.value_max, g.value_sum) for g in readable}
+        return {
+            name: f"holds NaN or infinite values (min, max, sum: {_nums(values)})"
+            for name, values in stats.items()
+            if any(v is not None and not np.isfinite(v) for v in values)
+        }
+    source, out = open_grids(path, axes), {}
+    for g in readable:
+        values = source.read([g.name]).arrays[g.name]
+        found = _validate.nonfinite(values) if np.issubdtype(values.dtype, np.number) else None
+        if found is not None:
+            out[g.name] = f"{found[0]:,} of {values.size:,} values are NaN or infinite (first "
+            out[g.name] += f"{found[1]})"
+    return out
+
+
+def _nums(values) -> str:
+    return ", ".join(_num(v) for v in values)
+
+
+def _strict_json(records: list[dict]) -> tuple[list[dict], list[str]]:
+    """``records`` with every NaN or ±inf number as null (JSON has no such numbers), and one
+    warning per grid naming the fields that became null."""
+    out, warnings = [], []
+    for record in records:
+        nulled = {k: v for k, v in record.items() if isinstance(v, float) and not np.isfinite(v)}
+        out.append(record | dict.fromkeys(nulled))
+        if nulled:
+            shown = ", ".join(f"{k} {v}" for k, v in nulled.items())
+            warnings.append(f"{record['name']}: {shown} (not JSON numbers) shown as null")
+    return out, warnings
 
 
 def _info_table(path: Path, grids) -> None:
