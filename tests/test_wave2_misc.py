@@ -212,3 +212,47 @@ def test_info_json_of_a_vdb_with_nan_and_inf_is_strict_json(tmp_path):
     assert any("shown as null" in w for w in report["warnings"])
     assert any(w.startswith("velocity: holds NaN or infinite") for w in report["warnings"])
     assert "velocity: holds NaN" in " ".join(_run("info", path).output.split())
+
+
+# --- 5. NUL bytes in paths ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("suffix", "text", "key"),
+    [
+        (".json", '{"volume": {"path": "bo\\u0000x.npz"}}', "volume.path"),
+        (".toml", '[volume]\npath = "box.npz"\n[output]\npath = "a\\u0000b.png"\n', "output.path"),
+        (".toml", '[volume]\npath = "box.npz"\n[output]\nstats = "s\\u0000.json"\n', "output.stats"),
+        (".toml", '[volume]\npath = "box.npz"\n[render]\nline_table = "t\\u0000.csv"\n',
+         "render.line_table"),
+    ],
+)  # fmt: skip
+def test_a_nul_byte_in_a_scene_files_path_is_one_line_naming_the_key(
+    tmp_path, volume, suffix, text, key
+):
+    scene = _scene(tmp_path, text, "scene" + suffix)
+    for command in (("render", scene, "-o", tmp_path / "o.png"), ("info", scene)):
+        _one_line_error(_run(*command), str(scene), key, "NUL byte")
+    assert not (tmp_path / "o.png").exists()
+
+
+def test_a_nul_byte_in_a_scene_or_volume_path_given_to_the_api_is_a_scene_error(tmp_path):
+    from incandescent.config import SceneError, load_scene, scene_from_dict
+
+    with pytest.raises(SceneError, match=r"scene file path: a path cannot contain a NUL byte"):
+        load_scene(str(tmp_path / "a\0.toml"))
+    with pytest.raises(SceneError, match=r"volume.path: a path cannot contain a NUL"):
+        scene_from_dict({"volume": {"path": "vol\0.npz"}})
+
+
+def test_a_nul_byte_cannot_reach_the_command_line_of_a_process():
+    """execve(2) takes NUL-terminated strings: a NUL in an argument never reaches the CLI (the
+    caller fails first), so a command-line volume path cannot hold one; typer refuses one given
+    to the app in-process (exit status 2, no traceback)."""
+    import subprocess
+    import sys
+
+    with pytest.raises(ValueError, match="null byte"):
+        subprocess.run([sys.executable, "-m", "incandescent.cli", "render", "a\0.npz"])
+    result = _run("render", "a\0.npz", "-o", "o.png")
+    assert result.exit_code == 2 and "Traceback" not in result.output

@@ -45,7 +45,9 @@ def load_scene(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     for a missing file and :class:`SceneError` for everything else.
     """
     path = Path(path)
+    _check_no_nul(str(path), "scene file path", repr(str(path)))
     data = _read(path)
+    _check_path_keys(data, str(path))
     _resolve_paths(data, path.parent)
     return _validate(merge_overrides(data, overrides), str(path), overrides)
 
@@ -61,6 +63,7 @@ def scene_from_dict(
     if not isinstance(data, Mapping):
         raise SceneError(f"{source}: a scene is a table of sections; got {type(data).__name__}")
     copy = _plain(data)
+    _check_path_keys(merge_overrides(copy, overrides), source)
     if base_dir is not None:
         _resolve_paths(copy, Path(base_dir))
     return _validate(merge_overrides(copy, overrides), source, overrides)
@@ -132,6 +135,19 @@ def _parse_json(text: str, path: Path) -> Any:
         raise SceneError(
             f"{path}: JSON syntax error at line {error.lineno}, column {error.colno}: {error.msg}"
         ) from None
+
+
+def _check_no_nul(text: str, where: str, shown: str) -> None:
+    if "\0" in text:  # the OS cannot take it: one clear line, not "embedded null byte"
+        raise SceneError(f"{where}: a path cannot contain a NUL byte (\\x00); got {shown}")
+
+
+def _check_path_keys(data: Mapping[str, Any], source: str) -> None:
+    """Refuse a path key (``PATH_KEYS``, ``render.line_table``) holding a NUL byte."""
+    for section, key in (*PATH_KEYS, ("render", "line_table")):
+        value = _lookup(data, [section, key])
+        if isinstance(value, (str, Path)):
+            _check_no_nul(str(value), f"{source}: {section}.{key}", repr(str(value)))
 
 
 def _resolve_paths(data: dict, base_dir: Path) -> None:
