@@ -222,7 +222,8 @@ def test_info_json_of_a_vdb_with_nan_and_inf_is_strict_json(tmp_path):
     [
         (".json", '{"volume": {"path": "bo\\u0000x.npz"}}', "volume.path"),
         (".toml", '[volume]\npath = "box.npz"\n[output]\npath = "a\\u0000b.png"\n', "output.path"),
-        (".toml", '[volume]\npath = "box.npz"\n[output]\nstats = "s\\u0000.json"\n', "output.stats"),
+        (".toml", '[volume]\npath = "box.npz"\n[output]\nstats = "s\\u0000.json"\n',
+         "output.stats"),
         (".toml", '[volume]\npath = "box.npz"\n[render]\nline_table = "t\\u0000.csv"\n',
          "render.line_table"),
     ],
