@@ -257,3 +257,69 @@ def test_a_nul_byte_cannot_reach_the_command_line_of_a_process():
         subprocess.run([sys.executable, "-m", "incandescent.cli", "render", "a\0.npz"])
     result = _run("render", "a\0.npz", "-o", "o.png")
     assert result.exit_code == 2 and "Traceback" not in result.output
+
+
+# --- 6. scene-file paths stay inside the scene's folder ----------------------------------------
+
+
+@pytest.fixture
+def nested(tmp_path, volume) -> Path:
+    """tmp/outer/scene/ holding the volume; tmp/victim.json an unrelated file."""
+    folder = tmp_path / "outer" / "scene"
+    folder.mkdir(parents=True)
+    (folder / "box.npz").write_bytes(volume.read_bytes())
+    (tmp_path / "victim.json").write_text('{"keep": true}')
+    return folder
+
+
+@pytest.mark.parametrize(
+    ("key", "line"),
+    [
+        ("output.stats", '[output]\npath = "o.png"\nstats = "../../victim.json"\noverwrite = true'),
+        ("output.path", '[output]\npath = "sub/../../../victim.png"\noverwrite = true'),
+        ("volume.path", '[output]\npath = "o.png"'),
+    ],
+)
+def test_a_relative_path_out_of_the_scene_folder_is_refused_naming_the_key(
+    tmp_path, nested, key, line
+):
+    volume = "../../box.npz" if key == "volume.path" else "box.npz"
+    (tmp_path / "box.npz").write_bytes((nested / "box.npz").read_bytes())
+    scene = _scene(nested, f'[volume]\npath = "{volume}"\n{line}\n')
+    result = _run("render", scene, *SMALL)
+    _one_line_error(result, str(scene), key, "leaves the scene's folder", "absolute path")
+    assert (tmp_path / "victim.json").read_text() == '{"keep": true}'
+    assert sorted(p.name for p in nested.iterdir()) == ["box.npz", "scene.toml"]
+
+
+def test_an_output_through_a_symlink_out_of_the_scene_folder_is_refused(tmp_path, nested):
+    (nested / "out").symlink_to(tmp_path)
+    scene = _scene(nested, '[volume]\npath = "box.npz"\n[output]\nstats = "out/victim.json"\n'
+                   'path = "o.png"\noverwrite = true\n')  # fmt: skip
+    _one_line_error(_run("render", scene, *SMALL), "output.stats", "leaves the scene's folder")
+    assert (tmp_path / "victim.json").read_text() == '{"keep": true}'
+
+
+def test_paths_inside_the_folder_and_absolute_paths_are_taken(tmp_path, nested):
+    (nested / "renders").mkdir()
+    elsewhere = tmp_path / "elsewhere.json"
+    scene = _scene(nested, '[volume]\npath = "./renders/../box.npz"\n[output]\n'
+                   f'path = "renders/o.png"\nstats = "{elsewhere}"\n')  # fmt: skip
+    result = _run("render", scene, *SMALL)
+    assert result.exit_code == 0, result.output
+    assert (nested / "renders" / "o.png").is_file() and json.loads(elsewhere.read_text())
+
+
+def test_a_scene_overwrite_never_replaces_the_scene_or_its_volume(tmp_path, nested):
+    before = (nested / "box.npz").read_bytes()
+    text = {"volume": {"path": "box.npz"}, "output": {"path": "o.png", "stats": "scene.json",
+                                                       "overwrite": True}}  # fmt: skip
+    scene = _scene(nested, json.dumps(text), "scene.json")
+    scene_text = scene.read_text()
+    _one_line_error(_run("render", scene, *SMALL), "input")
+    assert scene.read_text() == scene_text and not (nested / "o.png").exists()
+    os.link(nested / "box.npz", nested / "alias.png")
+    scene = _scene(nested, '[volume]\npath = "box.npz"\n[output]\npath = "alias.png"\n'
+                   "overwrite = true\n")  # fmt: skip
+    _one_line_error(_run("render", scene, *SMALL), "input")
+    assert (nested / "box.npz").read_bytes() == before

@@ -2,15 +2,24 @@
 
 Errors are one :class:`SceneError` (a ``ValueError``) whose message names the file, the dotted key
 path and the problem: unknown keys get a "did you mean", type errors quote the value and the
-expected type, TOML/JSON syntax errors give the line and column. Relative paths in a file
-(``volume.path``, ``output.path``, ``output.stats``) resolve against the file's folder; paths in
-``overrides`` (command-line flags) are left as given, i.e. relative to the working directory.
+expected type, TOML/JSON syntax errors give the line and column.
+
+Paths. Relative paths in a file (``volume.path``, ``output.path``, ``output.stats``) resolve
+against the file's folder and must stay inside it: ``../..`` out of it is refused, naming the key
+(a scene file someone sends cannot write, or read, next to it by accident), and so is an output
+reached through a symlink that leads out. An absolute path (or ``~/…``) is the user's explicit
+choice and is taken as given. Paths in ``overrides`` (command-line flags) are left as given,
+i.e. relative to the working directory. A path holding a NUL byte is refused. What the run then
+writes is checked by ``io.atomic.check_output``: an output is never one of the run's inputs (the
+volume, the scene file, by any name, even with overwrite), and an existing file is replaced only
+with ``--overwrite`` or ``[output] overwrite = true``.
 """
 
 from __future__ import annotations
 
 import difflib
 import json
+import os
 import re
 import tomllib
 import types
@@ -29,6 +38,8 @@ __all__ = ["SUFFIXES", "SceneError", "load_scene", "merge_overrides", "scene_fro
 SUFFIXES = SCENE_SUFFIXES
 #: Keys holding file paths, resolved against the scene file's folder.
 PATH_KEYS = (("volume", "path"), ("output", "path"), ("output", "stats"))
+#: The path keys a run writes (dotted).
+OUTPUT_KEYS = ("output.path", "output.stats")
 #: At most this many problems are spelled out in one message.
 MAX_REPORTED = 5
 
@@ -48,7 +59,7 @@ def load_scene(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     _check_no_nul(str(path), "scene file path", repr(str(path)))
     data = _read(path)
     _check_path_keys(data, str(path))
-    _resolve_paths(data, path.parent)
+    _resolve_paths(data, path.parent, str(path))
     return _validate(merge_overrides(data, overrides), str(path), overrides)
 
 
@@ -65,7 +76,7 @@ def scene_from_dict(
     copy = _plain(data)
     _check_path_keys(merge_overrides(copy, overrides), source)
     if base_dir is not None:
-        _resolve_paths(copy, Path(base_dir))
+        _resolve_paths(copy, Path(base_dir), source)
     return _validate(merge_overrides(copy, overrides), source, overrides)
 
 
@@ -150,12 +161,34 @@ def _check_path_keys(data: Mapping[str, Any], source: str) -> None:
             _check_no_nul(str(value), f"{source}: {section}.{key}", repr(str(value)))
 
 
-def _resolve_paths(data: dict, base_dir: Path) -> None:
+def _resolve_paths(data: dict, base_dir: Path, source: str) -> None:
+    """Relative path keys → absolute, against ``base_dir``; one that leaves it is refused."""
     for section, key in PATH_KEYS:
         table = data.get(section)
         if isinstance(table, dict) and isinstance(table.get(key), str):
             path = Path(table[key]).expanduser()
-            table[key] = str(path if path.is_absolute() else base_dir.absolute() / path)
+            if not path.is_absolute():
+                dotted = f"{section}.{key}"
+                path = _inside(
+                    base_dir.absolute(), path, f"{source}: {dotted}", dotted in OUTPUT_KEYS
+                )
+            table[key] = str(path)
+
+
+def _inside(base: Path, relative: Path, where: str, output: bool) -> Path:
+    """``base / relative``, refused when it is not inside ``base`` — by ``..`` or, for an output
+    key, through a symlink (an output would land outside the scene's folder)."""
+    joined = Path(os.path.normpath(base / relative))
+    real_base = os.path.realpath(base)
+    escapes = not joined.is_relative_to(os.path.normpath(base))
+    if not escapes and output:
+        escapes = not Path(os.path.realpath(joined)).is_relative_to(real_base)
+    if escapes:
+        raise SceneError(
+            f"{where}: {str(relative)!r} leaves the scene's folder {base}; a relative path in a "
+            "scene file stays inside its folder (give an absolute path to go elsewhere)"
+        )
+    return joined
 
 
 # --- errors -------------------------------------------------------------------------------------
