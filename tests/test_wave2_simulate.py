@@ -132,11 +132,6 @@ def test_a_full_disk_names_the_frame_and_leaves_nothing_truncated(tmp_path, suff
     _ok(_simulate(kept, "--frames", 2, "--format", suffix[1:]))  # resumes where it stopped
 
 
-@pytest.mark.xfail(
-    reason="needs the read-back verify of .vdb writes in io/output.py (another change of issue "
-    "25): until then OpenVDB's truncated write commits and only the checkpoint after it fails",
-    strict=False,
-)
 def test_a_vdb_frame_that_does_not_fit_fails_at_the_frame_itself(tmp_path):
     if openvdb.problem() is not None:
         pytest.skip(str(openvdb.problem()))

@@ -107,6 +107,9 @@ def _limits(max_memory: float | None, max_samples: float | None):
         if value is not None and not value > 0:  # also refuses nan
             raise ValueError(f"{flag} must be a number > 0; got {value}")
     memory = None if max_memory is None else max_memory * GIB
+    from incandescent.io import openvdb
+
+    openvdb.set_memory_budget(memory)  # the OpenVDB worker's reads are bounded too
     return Limits(memory, DEFAULT_MAX_SAMPLES if max_samples is None else max_samples)
 
 
@@ -561,8 +564,9 @@ def info(
             if not as_json:
                 _say(f"{path}: a scene file; its volume is {spec.path}")
             path, axes = spec.path, axes or spec.axes
-        grids = describe(path, axes)
-        bad = _nonfinite_voxels(path, axes, grids)
+        with np.errstate(invalid="ignore", over="ignore"):  # NaN/inf: reported below, once
+            grids = describe(path, axes)
+            bad = _nonfinite_voxels(path, axes, grids)
     warnings = file_warnings(path, grids) + [w for g in grids for w in _grid_warnings(g, bad)]
     if as_json:
         records = [g.as_json() | {"finite": g.name not in bad} for g in grids]
@@ -674,14 +678,31 @@ def convert(
     with _guarded():
         limits = _limits(max_memory, None)
         check_output(output, overwrite, VOLUME_OUTPUT_SUFFIXES, "volume")
+        _check_vdb_writer(output)
         scene = _scene(source, _overrides(flags))
+        check_output(output, overwrite, inputs=[source, scene.volume.path])
         from incandescent.volume import Volume
+        from incandescent.volume.carry import carried
 
-        volume = api.volume_from_section(scene.volume, scene.remap(), limits, "dense")
+        spec, velocity, left_out = carried(scene.volume, scene.render.line_table, limits)
+        volume = api.volume_from_section(spec, scene.remap(), limits, "dense", velocity=velocity)
         assert isinstance(volume, Volume)  # a dense read
         written = save_volume(volume, output, overwrite=overwrite)
     _say(f"converted {source} ({volume.shape[0]}×{volume.shape[1]}×{volume.shape[2]} voxels, "
          f"voxel {volume.voxel_size_m:g} m) to {written}")  # fmt: skip
+    for note in left_out:
+        _say(f"left out: {note}")
+
+
+def _check_vdb_writer(output: Path) -> None:
+    """A ``.vdb`` output needs OpenVDB: say so before any work, naming the output."""
+    if output.suffix.lower() != ".vdb":
+        return
+    from incandescent.io import openvdb
+
+    problem = openvdb.problem()
+    if problem is not None:
+        raise ValueError(f"cannot write {output}: {problem}")
 
 
 @app.command()

@@ -42,11 +42,36 @@ INSTALL_HINT = (
 
 
 def _clean_env() -> dict[str, str]:
-    """The environment without this project's Python settings (its NumPy must not leak in)."""
+    """The environment without this project's Python settings (its NumPy must not leak in), and
+    the worker's memory budget (``openvdb_worker.BUDGET_ENV``)."""
     drop = ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "PYTHONSTARTUP")
     env = {k: v for k, v in os.environ.items() if k not in drop}
     env["PYTHONNOUSERSITE"] = "1"
+    env["INCANDESCENT_OPENVDB_MAX_BYTES"] = str(int(worker_budget_bytes()))
     return env
+
+
+#: ``--max-memory`` in bytes, for the worker (None: the memory available when it starts).
+_BUDGET_BYTES: float | None = None
+
+
+def set_memory_budget(max_bytes: float | None) -> None:
+    """Bound the worker's memory (RLIMIT_AS over what it maps at start) to ``max_bytes``; a
+    running worker with another budget is stopped, so the next read starts one under it."""
+    global _BUDGET_BYTES
+    if max_bytes == _BUDGET_BYTES:
+        return
+    _BUDGET_BYTES = max_bytes
+    with _LOCK:
+        for worker in _WORKERS.values():
+            worker.close()
+        _WORKERS.clear()
+
+
+def worker_budget_bytes() -> float:
+    from incandescent.budget import available_memory_bytes
+
+    return _BUDGET_BYTES if _BUDGET_BYTES is not None else available_memory_bytes()
 
 
 @functools.cache
@@ -162,6 +187,11 @@ def ask(path: Path, request: dict) -> dict:
             raise ValueError(
                 f"{path}: OpenVDB {what} reading this file: it is corrupt or truncated"
             )
+    if reply.get("memory"):
+        raise ValueError(
+            f"{path}: OpenVDB {reply.get('error')} reading it (--max-memory, else the memory "
+            "available): the file is corrupt, or raise --max-memory"
+        )
     if not reply.get("ok"):
         doing = "cannot write it" if request.get("op") == "write" else "cannot read it"
         raise ValueError(f"{path}: OpenVDB {doing} ({reply.get('error')})")

@@ -259,15 +259,37 @@ def main() -> None:  # noqa: D103
         print(json.dumps({"ok": False, "error": f"cannot import pyopenvdb: {error}"}), flush=True)
         sys.exit(3)
     version = list(vdb.LIBRARY_VERSION)
+    budget = _limit_memory()
     print(json.dumps({"ok": True, "ready": True, "openvdb": version}), flush=True)
     for line in sys.stdin:
         try:
             request = json.loads(line)
             reply = OPS[request["op"]](request)
             reply["ok"] = True
+        except MemoryError:  # OpenVDB's std::bad_alloc too: a corrupt header claims huge sizes
+            reply = {"ok": False, "error": f"needs more than the {budget} MiB allowed", "memory": 1}
         except Exception as error:  # every failure goes back to the client as text
             reply = {"ok": False, "error": f"{type(error).__name__}: {error}"}
         print(json.dumps(reply), flush=True)
+
+
+#: The client's memory budget for this worker's work, bytes (``--max-memory`` or what is free).
+BUDGET_ENV = "INCANDESCENT_OPENVDB_MAX_BYTES"
+
+
+def _limit_memory() -> int:
+    """Cap this process's address space at what it maps now plus the budget (RLIMIT_AS), so a
+    corrupt file that makes OpenVDB allocate without bound fails with MemoryError instead of
+    taking the machine; returns the budget in MiB (0: no budget given, no cap)."""
+    import resource
+
+    budget = int(float(os.environ.get(BUDGET_ENV) or 0))
+    if budget <= 0:
+        return 0
+    with open("/proc/self/status", encoding="ascii") as status:
+        mapped = next(int(x.split()[1]) * 1024 for x in status if x.startswith("VmSize:"))
+    resource.setrlimit(resource.RLIMIT_AS, (mapped + budget, mapped + budget))
+    return budget >> 20
 
 
 if __name__ == "__main__":

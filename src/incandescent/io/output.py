@@ -96,6 +96,19 @@ def volume_grids(volume) -> dict[str, np.ndarray]:
 _UNITS = {"temperature": "kelvin", "absorption": "1/m", "velocity": "m/s"}
 
 
+def _check_vdb(tmp: Path, grids: dict[str, np.ndarray]) -> None:
+    """OpenVDB reads ``tmp`` back with every grid written (OpenVDB does not report a write cut
+    short by a full disk: the file must prove itself before it replaces anything)."""
+    from incandescent.io import openvdb
+
+    try:
+        found = {g["name"] for g in openvdb.describe(tmp, ranges=False)}
+    except ValueError as error:
+        raise ValueError(str(error).removeprefix(f"{tmp}: ")) from None
+    if found != set(grids):
+        raise ValueError(f"it holds grids {sorted(found)}, not the {sorted(grids)} written")
+
+
 def save_volume(volume, path: str | Path, overwrite: bool = False) -> Path:
     """Write ``volume`` to ``.npz`` (dense, with ``voxel_size_m`` and ``origin_m``) or ``.vdb``
     (sparse: zeros inactive, pruned, written by OpenVDB so Blender and Houdini load it; a
@@ -111,10 +124,17 @@ def save_volume(volume, path: str | Path, overwrite: bool = False) -> Path:
             for name in grids
         }
 
+        problem = openvdb.problem()
+        if problem is not None:
+            raise ValueError(f"cannot write {path}: {problem}")
+
         def write_vdb(tmp: Path) -> None:
             openvdb.write(tmp, grids, volume.voxel_size_m, volume.origin_m, meta)
 
-        return atomic_write(path, write_vdb, overwrite=overwrite)
+        def read_back(tmp: Path) -> None:
+            _check_vdb(tmp, grids)
+
+        return atomic_write(path, write_vdb, overwrite=overwrite, verify=read_back)
 
     def write_npz(tmp: Path) -> None:
         with open(tmp, "xb") as handle:

@@ -56,17 +56,19 @@ def volume_from_section(
     limits: Limits | None = None,
     layout: str = "auto",
     blur_fps: float | None = None,
+    velocity: bool = False,
 ) -> Volume | SparseVolume:
     """The Volume a scene's ``[volume]`` section describes: file, grid roles, preset, remap.
     NumPy grids are checked against ``limits`` from their headers before they are read. An
     OpenVDB file is read as sparse leaves (a :class:`SparseVolume`, never densified) when
     ``layout`` is "sparse", or "auto" and the file is sparse or too big to densify.
     ``blur_fps``: the render blurs motion at this frame rate, so the velocity grid is read too
-    (``spec.velocity_units`` "voxels/frame" are converted to m/s with it)."""
+    (``spec.velocity_units`` "voxels/frame" are converted to m/s with it). ``velocity``: read
+    the velocity grid (in m/s) without blurring — what ``convert`` carries to its output."""
     limits = limits or Limits()
     source = open_grids(spec.path, spec.axes, limits)
     roles = _roles(spec, source)
-    if blur_fps is not None:
+    if blur_fps is not None or velocity:
         roles["velocity"] = _velocity_grid(spec, source)
     if _reads_leaves(spec, source, roles, layout, limits):
         return _sparse_volume(spec, source, roles, remap, blur_fps)

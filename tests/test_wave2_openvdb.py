@@ -1,0 +1,126 @@
+"""Issue 25, `convert` and `.vdb` outputs: a written `.vdb` reads back through OpenVDB before it
+replaces anything (a real full tmpfs), the input is never the output, OpenVDB's absence is said
+before any work naming the output, and a round trip keeps every grid the renderer uses."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from incandescent.cli import app
+from incandescent.io import openvdb
+
+runner = CliRunner()
+needs_openvdb = pytest.mark.skipif(openvdb.problem() is not None, reason=str(openvdb.problem()))
+
+
+def _error(result, *fragments: str) -> str:
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output
+    line = " ".join(result.output.split())
+    assert line.count("error:") == 1, result.output
+    for fragment in fragments:
+        assert fragment in line, line
+    return line
+
+
+@pytest.fixture(scope="module")
+def frame(tmp_path_factory) -> Path:
+    """A simulated frame: temperature, soot, CH, C2 and velocity grids."""
+    out = tmp_path_factory.mktemp("sim") / "fire"
+    args = ["simulate", "candle", "-o", str(out), "--resolution", "16", "--frames", "1"]
+    result = runner.invoke(app, [*args, "--backend", "cpu"])
+    assert result.exit_code == 0, result.output
+    return out / "fire_0001.npz"
+
+
+def _in_tmpfs(size: str, folder: Path, script: str) -> subprocess.CompletedProcess:
+    if shutil.which("unshare") is None:
+        pytest.skip("needs unshare(1) for a private mount namespace")
+    probe = subprocess.run(["unshare", "-rm", "true"], capture_output=True)
+    if probe.returncode != 0:
+        pytest.skip(f"user or mount namespaces unavailable: {probe.stderr.decode().strip()}")
+    folder.mkdir()
+    full = f"mount -t tmpfs -o size={size} tmpfs {folder} && {script}"
+    return subprocess.run(["unshare", "-rm", "sh", "-c", full], capture_output=True, text=True)
+
+
+@needs_openvdb
+@pytest.mark.parametrize("overwrite", [False, True])
+def test_a_vdb_that_does_not_fit_is_never_committed(tmp_path, frame, overwrite):
+    """A 64 KiB tmpfs: a good small .vdb written first (and kept byte for byte), then the disk
+    filled so the next .vdb is cut short; convert must fail naming the output, leaving the old."""
+    mount = tmp_path / "mnt"
+    cli = f"{sys.executable} -m incandescent.cli convert {frame}"
+    keep = f"cp -a {mount}/out.vdb {tmp_path}/before.vdb"
+    target = "out.vdb --overwrite" if overwrite else "new.vdb"
+    script = (
+        f"{cli} {mount}/out.vdb >/dev/null && {keep} && "
+        f"(dd if=/dev/zero of={mount}/fill bs=1k 2>/dev/null; truncate -s -6K {mount}/fill) && "
+        f"{cli} {mount}/{target}; echo rc=$? >&2; rm {mount}/fill; ls -a {mount} >&2; "
+        f"cp -a {mount}/out.vdb {tmp_path}/after.vdb"
+    )
+    result = _in_tmpfs("160k", mount, script)
+    assert "rc=2" in result.stderr, result.stdout + result.stderr
+    assert "Traceback" not in result.stderr
+    name = "out.vdb" if overwrite else "new.vdb"
+    assert f"{mount}/{name}" in result.stderr
+    assert (tmp_path / "before.vdb").read_bytes() == (tmp_path / "after.vdb").read_bytes()
+    listing = result.stderr.split("rc=2", 1)[1].split()
+    assert sorted(listing) == [".", "..", "out.vdb"], listing  # no new.vdb, no temporary
+
+
+@pytest.mark.parametrize("how", ["symlink", "hardlink"])
+def test_convert_never_writes_over_its_input(tmp_path, frame, how):
+    source = tmp_path / "in.npz"
+    shutil.copy(frame, source)
+    link = tmp_path / "link.npz"
+    link.symlink_to(source) if how == "symlink" else link.hardlink_to(source)
+    before = source.read_bytes()
+    _error(runner.invoke(app, ["convert", str(source), str(link), "--overwrite"]), "input")
+    assert source.read_bytes() == before
+
+
+def test_convert_without_openvdb_says_so_first_naming_the_output(tmp_path, monkeypatch):
+    monkeypatch.setattr(openvdb, "problem", lambda: "OpenVDB's Python module was not found")
+    missing = tmp_path / "no-such-input.npz"  # checked after: the output's problem comes first
+    line = _error(
+        runner.invoke(app, ["convert", str(missing), str(tmp_path / "o.vdb")]), "o.vdb", "OpenVDB"
+    )
+    assert ".tmp" not in line and "no-such-input" not in line
+    assert list(tmp_path.iterdir()) == []
+
+
+@needs_openvdb
+def test_a_simulated_frame_keeps_every_grid_through_vdb(tmp_path, frame):
+    out = tmp_path / "frame.vdb"
+    result = runner.invoke(app, ["convert", str(frame), str(out)])
+    assert result.exit_code == 0, result.output
+    names = {g["name"] for g in openvdb.describe(out)}
+    assert {"temperature", "CH", "C2", "velocity"} <= names
+    back = tmp_path / "back.npz"
+    assert runner.invoke(app, ["convert", str(out), str(back)]).exit_code == 0
+    with np.load(frame) as a, np.load(back) as b:
+        for name in ("temperature", "CH", "C2", "velocity"):
+            np.testing.assert_allclose(b[name], a[name].astype(np.float32), atol=1e-6)
+    blurred = runner.invoke(
+        app,
+        ["render", str(out), "-o", str(tmp_path / "b.png"), "--width", "16", "--height", "16",
+         "--shutter", "-0.25:0.25", "--species", "CH=CH,C2=C2"],
+    )  # fmt: skip
+    assert blurred.exit_code == 0, blurred.output
+
+
+def test_convert_names_the_grids_it_leaves_out(tmp_path):
+    source = tmp_path / "in.npz"
+    hot = np.full((4, 4, 4), 1500.0, np.float32)
+    np.savez(source, temperature=hot, pressure=np.ones((4, 4, 4), np.float32))
+    result = runner.invoke(app, ["convert", str(source), str(tmp_path / "o.npz")])
+    assert result.exit_code == 0, result.output
+    assert "left out: grid 'pressure'" in result.output
