@@ -164,6 +164,7 @@ def _nan_npz(tmp_path: Path) -> Path:
     return path
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # no NumPy warning on stderr either
 def test_info_names_every_grid_with_non_finite_voxels_as_render_refuses(tmp_path):
     path = _nan_npz(tmp_path)
     text = " ".join(_run("info", path).output.split())
