@@ -475,26 +475,35 @@ def _render_missing(
         for i, volume in _volume_stream(volumes, n_frames, todo):
             image = _check_frame(render_frame(volume), i, shape)
             shape = image.shape
-            path = frame_path(frame_dir, i)
-            write_png(path, image, overwrite=path.exists(), metadata={"frame": str(i)})
-            keys[str(i)] = key_of(i)
-            _write_manifest(frame_dir, keys)  # after the frame: a frame without entry is redone
+            _claim(frame_dir, keys, key_of, [i])  # before the frame: any frame has its entry
+            write_png(frame_path(frame_dir, i), image, metadata={"frame": str(i)})
             bar.advance(task)
             bar.update(task, rate=_rate(bar.tasks[0]))
     return [frame_path(frame_dir, i) for i in range(n_frames)], len(todo)
 
 
+def _claim(frame_dir: Path, keys: dict[str, str], key_of, indices) -> None:
+    """Record the keys of frames about to be written *before* any is committed — a killed run
+    then leaves every frame on disk under its own key (one with an entry but no PNG is simply
+    rendered again) — after removing the older frames they replace, so no old PNG ever stands
+    under a new key."""
+    for i in indices:
+        frame_path(frame_dir, i).unlink(missing_ok=True)
+        keys[str(i)] = key_of(i)
+    _write_manifest(frame_dir, keys)
+
+
 def _render_elsewhere(distribute, todo, frame_dir, keys, key_of, shape, bar) -> None:
-    """Frames rendered by ``distribute``; the manifest entry of each is written here, after its
-    PNG exists. Raises :class:`FramesFailed` after the others finished."""
+    """Frames rendered by ``distribute``; the manifest entries of all are written here first
+    (:func:`_claim`), as the workers write the PNGs. Raises :class:`FramesFailed` after the
+    others finished."""
     sizes = {shape} if shape is not None else set()
+    _claim(frame_dir, keys, key_of, todo)
 
     def on_done(index: int, frame_shape: tuple) -> None:
         sizes.add(tuple(frame_shape))
         if len(sizes) > 1:
             raise ValueError(f"frame {index} has shape {frame_shape}; the others {sizes}")
-        keys[str(index)] = key_of(index)
-        _write_manifest(frame_dir, keys)
         bar.advance(bar.task_ids[0])
         bar.update(bar.task_ids[0], rate=_rate(bar.tasks[0]))
 
@@ -556,8 +565,10 @@ def render_sequence(
     A frame is reused only when its PNG is readable and the manifest records the same key for
     it; a missing, truncated or corrupt one is (re)rendered, and one made from another key is
     refused (``FileExistsError``) unless ``overwrite``. Each PNG is written to a temporary file
-    first and moved into place, and its manifest entry is written after it, so an interrupted run
-    (exception, Ctrl-C, SIGKILL) leaves no partial or unrecorded frame that a rerun would reuse.
+    first and moved into place, and its manifest entry is written *before* it (the frame it
+    replaces removed first), so an interrupted run (exception, Ctrl-C, SIGKILL — on a cluster
+    too) leaves every whole frame recorded under its key, and no partial or old frame under a
+    new key: a rerun reuses what was finished and renders the rest.
     One run at a time writes a folder: a second one fails at once (:class:`OutputError` naming
     the owner's pid). New frames must have the size of the frames kept (``ValueError``).
     """
