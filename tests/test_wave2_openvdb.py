@@ -7,6 +7,7 @@ from __future__ import annotations
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -124,3 +125,51 @@ def test_convert_names_the_grids_it_leaves_out(tmp_path):
     result = runner.invoke(app, ["convert", str(source), str(tmp_path / "o.npz")])
     assert result.exit_code == 0, result.output
     assert "left out: grid 'pressure'" in result.output
+
+
+@pytest.mark.parametrize(
+    ("script", "said"),
+    [
+        ("sleep 30", "did not answer within 2 s"),  # mute
+        ("echo hello; cat", "answered"),  # talks, but not our protocol
+        ("echo '{\"ok\": true}'; cat", "answered"),  # JSON, but not the worker's hello
+        ("exit 0", "did not answer"),
+    ],
+    ids=["mute", "garbage", "wrong-hello", "dies"],
+)
+def test_a_worker_that_is_not_ours_is_named_in_time(tmp_path, monkeypatch, script, said):
+    fake = tmp_path / "python3"
+    fake.write_text(f"#!/bin/sh\n{script}\n")
+    fake.chmod(0o755)
+    monkeypatch.setenv(openvdb.ENV_VAR, str(fake))
+    monkeypatch.setattr(openvdb, "START_TIMEOUT_S", 2.0)
+    openvdb.interpreter.cache_clear()
+    try:
+        start = time.monotonic()
+        problem = openvdb.problem()
+        assert time.monotonic() - start < 2.0 + 3.0
+    finally:
+        monkeypatch.undo()
+        openvdb.interpreter.cache_clear()
+    assert problem is not None and f"worker under {fake}" in problem and said in problem
+    assert "$INCANDESCENT_OPENVDB_PYTHON" in problem
+
+
+@needs_openvdb
+@pytest.mark.parametrize("bad", [np.nan, np.inf, 1e30], ids=["nan", "inf", "1e30"])
+def test_a_sparse_vdb_with_bad_velocities_is_one_line_when_blurred(tmp_path, bad):
+    T = np.zeros((16, 16, 16), np.float32)
+    T[4:12, 4:12, 4:12] = 1500.0
+    v = np.zeros((16, 16, 16, 3), np.float32)
+    v[8, 8, 8] = (bad, 0.0, 0.0)
+    path = tmp_path / "v.vdb"
+    openvdb.write(path, {"temperature": T, "velocity": v}, 0.01, (0.0, 0.0, 0.0), {})
+    start = time.monotonic()
+    result = runner.invoke(
+        app,
+        ["render", str(path), "-o", str(tmp_path / "o.png"), "--width", "16", "--height", "16",
+         "--layout", "sparse", "--shutter", "-0.25:0.25"],
+    )  # fmt: skip
+    assert time.monotonic() - start < 20
+    line = _error(result, "v.vdb", "velocity")
+    assert "non-finite" in line or "voxels in a frame" in line

@@ -32,8 +32,8 @@ ENV_VAR = "INCANDESCENT_OPENVDB_PYTHON"
 #: System interpreters that may have pyopenvdb (Debian/Ubuntu, Homebrew on Intel and Apple).
 INTERPRETERS = ("/usr/bin/python3", "/usr/local/bin/python3", "/opt/homebrew/bin/python3")
 WORKER = Path(__file__).with_name("openvdb_worker.py")
-#: Seconds the worker may take to start (import pyopenvdb and NumPy).
-START_TIMEOUT_S = 60.0
+#: Seconds the worker may take to start (import pyopenvdb and NumPy: ~0.2 s warm, a few s cold).
+START_TIMEOUT_S = 20.0
 INSTALL_HINT = (
     "install OpenVDB's Python module for the system Python (Debian/Ubuntu: apt-get install "
     "python3-openvdb; macOS: brew install openvdb) or point INCANDESCENT_OPENVDB_PYTHON at an "
@@ -87,6 +87,10 @@ def interpreter() -> str | None:
     return None
 
 
+#: Why a worker did not start, by interpreter (for :func:`problem`'s message).
+_START_ERRORS: dict[str, str] = {}
+
+
 def start() -> None:
     """Find the interpreter — starting its worker, ~0.2 s to import OpenVDB — on a thread, while
     the caller does other work; the first read then finds the worker ready (or waits for it)."""
@@ -100,14 +104,20 @@ def _started(python: str) -> bool:
             return True
         try:
             _WORKERS[python] = _Worker(python)
-        except (OSError, RuntimeError):
+        except (OSError, RuntimeError) as error:
+            _START_ERRORS[python] = str(error)
             return False
         return True
 
 
 def problem() -> str | None:
-    """None when OpenVDB can be used, else one sentence saying what to install."""
-    return None if interpreter() else f"OpenVDB's Python module was not found; {INSTALL_HINT}"
+    """None when OpenVDB can be used, else one sentence saying what is wrong and what to do."""
+    if interpreter():
+        return None
+    given = os.environ.get(ENV_VAR)
+    if given and given in _START_ERRORS:
+        return f"{_START_ERRORS[given]} (${ENV_VAR}); {INSTALL_HINT}"
+    return f"OpenVDB's Python module was not found; {INSTALL_HINT}"
 
 
 class _Worker:
@@ -122,19 +132,36 @@ class _Worker:
             text=True,
             env=_clean_env(),
         )
-        hello = self._reply()
-        if not hello or not hello.get("ok"):
+        try:
+            hello = self._reply()
+        except ValueError as error:
+            hello = {"error": str(error)}
+        if not hello or not hello.get("ok") or "openvdb" not in hello:
             self.close()
-            raise RuntimeError(f"the OpenVDB worker did not start: {hello}")
+            said = "did not answer" if hello is None else f"answered {str(hello)[:80]!r}"
+            raise RuntimeError(
+                f"the OpenVDB worker under {python} did not start: it {said} within "
+                f"{START_TIMEOUT_S:g} s"
+            )
 
-    def _reply(self, timeout_s: float = START_TIMEOUT_S) -> dict | None:
-        """The next reply line; None when the worker died or did not answer within the time."""
+    def _reply(self, timeout_s: float | None = None) -> dict | None:
+        """The next reply line; None when the worker died or did not answer within the time;
+        ValueError for a line that is not a JSON object (not our worker)."""
         assert self.process.stdout is not None
-        ready, _, _ = select.select([self.process.stdout], [], [], timeout_s)
+        wait_s = START_TIMEOUT_S if timeout_s is None else timeout_s
+        ready, _, _ = select.select([self.process.stdout], [], [], wait_s)
         if not ready:
             return None
         line = self.process.stdout.readline()
-        return json.loads(line) if line else None
+        if not line:
+            return None
+        try:
+            reply = json.loads(line)
+        except ValueError:
+            reply = None
+        if not isinstance(reply, dict):
+            raise ValueError(f"garbage: {line.strip()[:60]!r}")
+        return reply
 
     def ask(self, request: dict, timeout_s: float) -> dict | None:
         """The reply, or None when the worker died or hung on the way."""

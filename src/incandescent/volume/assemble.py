@@ -228,11 +228,31 @@ def _blur_leaf_rings(spec, source, velocity_grid: str | None, fps: float | None)
         return 0
     stats = source.value_max(velocity_grid) if source.value_max else None
     if stats is None:
-        raise ValueError(f"{source.path}: the velocity grid's largest value is unknown")
+        raise ValueError(
+            f"{source.path}: the velocity grid's largest value is unknown (non-finite values, "
+            "or a grid OpenVDB cannot measure); motion blur needs finite velocities in m/s"
+        )
     largest, file_voxel = stats
+    if not np.isfinite(largest):
+        raise ValueError(
+            f"{source.path}: the velocity grid {velocity_grid!r} holds non-finite values "
+            f"(largest |v| = {largest}); motion blur needs finite velocities in m/s"
+        )
     voxel = spec.voxel_size_m or file_voxel
     speed = float(np.abs(_velocity_m_s(spec, np.full((1, 1, 1, 3), largest), voxel, fps)).max())
-    return int(np.ceil(speed / fps / voxel / LEAF))
+    travel = speed / fps / voxel  # voxels in one frame
+    if travel > MAX_BLUR_TRAVEL_VOXELS:
+        raise ValueError(
+            f"{source.path}: the velocity grid {velocity_grid!r} moves gas {travel:.3g} voxels "
+            f"in a frame ({speed:.3g} m/s at {fps:g} fps); blurring supports at most "
+            f"{MAX_BLUR_TRAVEL_VOXELS} — check volume.velocity_units and --velocity-scale"
+        )
+    return int(np.ceil(travel / LEAF))
+
+
+#: A frame's travel that blurring reads leaves for (64 leaves): beyond it, a blur streak is
+#: longer than any box this renderer reads sparse in memory — a unit error, not a flame.
+MAX_BLUR_TRAVEL_VOXELS = 64 * LEAF
 
 
 def _by_role(roles, grids) -> dict[str, Any]:
