@@ -749,10 +749,14 @@ def animate(
     velocity_units: str = OPT_VELOCITY_UNITS,
     velocity_scale: float = OPT_VELOCITY_SCALE,
     workers: int = typer.Option(
-        None, help="Render on a local Dask cluster of N worker processes [in-process]."
+        None,
+        help="Render on a local Dask cluster of N worker processes (at most 2 per core and one "
+        "per 512 MiB of memory) [in-process].",
     ),
     scheduler: str = typer.Option(
-        None, help="Render on an existing Dask cluster: tcp://HOST:PORT [$INCANDESCENT_SCHEDULER]."
+        None,
+        help="Render on an existing Dask cluster: tcp://HOST:PORT, which must answer within "
+        "20 s ($INCANDESCENT_SCHEDULER_TIMEOUT) [$INCANDESCENT_SCHEDULER].",
     ),
     max_memory: float = OPT_MAX_MEMORY,
     max_samples: float = OPT_MAX_SAMPLES,
@@ -783,6 +787,7 @@ def animate(
 
     with _guarded():
         limits = _limits(max_memory, max_samples)
+        cluster.resolve(workers, scheduler)  # the worker count and address, before any work
         frame_dir, _ = plan_output(output, None, overwrite)  # before reading or rendering
         paths = expand_sequence(pattern)
         keep_frame_memory()  # this process renders a sequence: frames reuse freed memory
