@@ -1,21 +1,32 @@
 """Frames on a Dask cluster: each task reads its own volume file, renders it and writes its PNG.
 
 ``animate --workers N`` starts a ``distributed.LocalCluster`` of N single-threaded worker
-processes (Dr.Jit's thread count set so that N workers × threads ≤ the cores); ``--scheduler
-tcp://HOST:PORT`` (or ``$INCANDESCENT_SCHEDULER``) uses an existing cluster. What travels to a
-worker is a :class:`FrameTask` — the frame's volume section (a path and how to read it), camera,
-render and display settings and the PNG's path — never a volume or an image: workers need the
-package installed and the inputs and outputs on storage they share with the client. The client
-keeps the manifest (written as each frame completes), so resume works whatever the number of
-workers. A task that dies with its worker is retried (``RETRIES``); one that fails by itself
-(a corrupt input) is reported by frame and file while the others finish.
+processes (Dr.Jit's thread count set so that N workers × threads ≤ the cores); N is at most
+:func:`worker_limit` (``WORKERS_PER_CORE`` per core, and one per ``WORKER_MEMORY_BYTES`` of the
+machine's memory), checked before anything starts. ``--scheduler tcp://HOST:PORT`` (or, without
+``--workers``, ``$INCANDESCENT_SCHEDULER``) uses an existing cluster: the address is checked
+first (``tcp://HOST:PORT``, port 1–65535), then the scheduler must answer Dask's handshake and an
+``identity`` request within ``CONNECT_TIMEOUT_S`` seconds (``$INCANDESCENT_SCHEDULER_TIMEOUT``
+overrides it); errors name the address and where it came from. What travels to a worker is a
+:class:`FrameTask` — the frame's volume section (a path and how to read it), camera, render and
+display settings and the PNG's path — never a volume or an image: workers need the package
+installed and the inputs and outputs on storage they share with the client. The client keeps
+the manifest (each frame's entry written before its PNG can exist, ``incandescent.animation``),
+so resume works whatever the number of workers. A task that dies with its worker is retried
+(``RETRIES``); one that fails by itself (a corrupt input) is reported by frame and file while the
+others finish — local workers do not log its traceback (:func:`quiet_task_errors`).
 """
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import logging
+import math
 import os
+import socket
+import struct
+import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,6 +42,14 @@ if TYPE_CHECKING:
 #: Times a frame is tried again when its worker dies (SIGKILL, out of memory).
 RETRIES = 2
 SCHEDULER_ENV = "INCANDESCENT_SCHEDULER"
+#: Seconds the whole connection to a scheduler may take: TCP connect, Dask's handshake and its
+#: answer to an ``identity`` request (``$INCANDESCENT_SCHEDULER_TIMEOUT`` overrides it).
+CONNECT_TIMEOUT_S = 20.0
+TIMEOUT_ENV = "INCANDESCENT_SCHEDULER_TIMEOUT"
+#: ``--workers`` is at most this many processes per core ...
+WORKERS_PER_CORE = 2
+#: ... and at most one per this much of the machine's memory (bytes).
+WORKER_MEMORY_BYTES = 512 << 20
 
 
 @dataclass(frozen=True)
@@ -79,23 +98,231 @@ def _client_module():
     return distributed
 
 
+# --- what to connect to: checked before anything starts ---------------------------------------
+
+
+@dataclass(frozen=True)
+class Target:
+    """A checked cluster choice: ``workers`` local processes, or the scheduler at ``address``
+    (``where``: the address and where it came from, for messages); neither: in-process."""
+
+    workers: int | None = None
+    address: str | None = None
+    where: str = ""
+
+
+def _memory_bytes() -> int:
+    """The machine's physical memory in bytes (0 if unknown)."""
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - not POSIX
+        return 0
+
+
+def worker_limit() -> tuple[int, str]:
+    """(most ``--workers`` allowed here, how that was derived): ``WORKERS_PER_CORE`` per core
+    and one per ``WORKER_MEMORY_BYTES`` of memory, at least 1."""
+    cores = os.cpu_count() or 1
+    memory = _memory_bytes()
+    by_memory = memory // WORKER_MEMORY_BYTES if memory else WORKERS_PER_CORE * cores
+    limit = max(1, min(WORKERS_PER_CORE * cores, by_memory))
+    why = (f"{WORKERS_PER_CORE} per core × {cores} core(s), at most one per "
+           f"{WORKER_MEMORY_BYTES >> 20} MiB of {memory / 2**30:.1f} GiB memory")  # fmt: skip
+    return limit, why
+
+
+def check_workers(workers: object) -> int:
+    """``--workers`` as a count in 1 … :func:`worker_limit`; ValueError naming the flag."""
+    if isinstance(workers, bool) or not isinstance(workers, int):
+        raise ValueError(f"--workers must be a whole number; got {workers!r}")
+    limit, why = worker_limit()
+    if workers < 1:
+        raise ValueError(f"--workers must be >= 1; got {workers}")
+    if workers > limit:
+        raise ValueError(
+            f"--workers {workers} is more than the {limit} worker processes allowed here "
+            f"({why}); pass at most --workers {limit}, or --scheduler for a bigger cluster"
+        )
+    return workers
+
+
+def check_address(text: str, where: str) -> str:
+    """``tcp://HOST:PORT`` (``HOST:PORT`` taken as tcp) with a port in 1–65535, normalised;
+    ValueError naming ``where`` (the flag or variable and the value) otherwise."""
+    expected = "expected tcp://HOST:PORT"
+    scheme, sep, rest = text.strip().partition("://")
+    if not sep:
+        scheme, rest = "tcp", text.strip()
+    host, colon, port = rest.rpartition(":")
+    if scheme.lower() != "tcp" or not colon or not host.strip("[]") or "/" in rest:
+        raise ValueError(f"scheduler address {where}: {expected}")
+    if not port.isdigit() or not 1 <= int(port) <= 65535:
+        raise ValueError(f"scheduler address {where}: port {port} is not in 1-65535; {expected}")
+    return f"tcp://{host}:{int(port)}"
+
+
+def connect_timeout_s() -> float:
+    """``CONNECT_TIMEOUT_S``, or ``$INCANDESCENT_SCHEDULER_TIMEOUT`` (seconds > 0) if set."""
+    text = os.environ.get(TIMEOUT_ENV, "").strip()
+    if not text:
+        return CONNECT_TIMEOUT_S
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"${TIMEOUT_ENV}={text!r}: expected a number of seconds > 0")
+    return value
+
+
+def resolve(workers: int | None, scheduler: str | None) -> Target:
+    """The checked :class:`Target` of ``--workers``/``--scheduler`` (``$INCANDESCENT_SCHEDULER``
+    when neither is given): nothing is started or contacted."""
+    if workers is not None and scheduler:
+        raise ValueError(f"pass --workers or --scheduler, not both (got --workers {workers} "
+                         f"and --scheduler {scheduler})")  # fmt: skip
+    if workers is not None:
+        return Target(workers=check_workers(workers))
+    env = os.environ.get(SCHEDULER_ENV, "")
+    if scheduler:
+        where = f"{scheduler} (from --scheduler)"
+    elif env.strip():
+        scheduler, where = env, f"{env} (from ${SCHEDULER_ENV})"
+    else:
+        return Target()
+    return Target(address=check_address(scheduler, where), where=where)
+
+
+# --- reaching a scheduler within a stated time --------------------------------------------------
+
+
+async def _identity(address: str) -> Any:
+    """The scheduler's answer to Dask's handshake and an ``identity`` request."""
+    from distributed.comm import connect as comm_connect
+    from distributed.core import send_recv
+
+    comm = await comm_connect(address, timeout=connect_timeout_s())
+    try:
+        return await send_recv(comm, op="identity")
+    finally:
+        comm.abort()
+
+
+def _ask_identity(address: str, timeout_s: float) -> dict:
+    """{'reply': …} or {'error': …} or {} (no answer within ``timeout_s``), on a helper thread
+    that is abandoned (a daemon) if the far end never answers."""
+    box: dict = {}
+
+    def ask() -> None:
+        try:
+            box["reply"] = asyncio.run(asyncio.wait_for(_identity(address), timeout_s))
+        except BaseException as error:  # noqa: BLE001 - every failure is reported as one line
+            box["error"] = error
+
+    helper = threading.Thread(target=ask, name="incandescent-scheduler-probe", daemon=True)
+    helper.start()
+    helper.join(timeout_s + 1.0)
+    return dict(box)
+
+
+#: A scheduler's handshake is a few hundred bytes; an answer announcing more is not one (and
+#: is not read: Dask would allocate what it announces).
+MAX_HANDSHAKE_BYTES = 1 << 20
+
+
+def _first_answer_bytes(address: str, where: str, timeout_s: float) -> int:
+    """Connect by TCP and read the size the far end announces for its first message (Dask's
+    server speaks first: its handshake); ConnectionError naming ``where`` if none comes."""
+    host, _, port = address.removeprefix("tcp://").rpartition(":")
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s) as sock:
+            sock.settimeout(timeout_s)
+            head = b""
+            while len(head) < 8 and (chunk := sock.recv(8 - len(head))):
+                head += chunk
+    except TimeoutError:
+        head = None
+    except OSError as error:
+        raise ConnectionError(f"cannot reach the Dask scheduler at {where}: "
+                              f"{error.strerror or error}") from None  # fmt: skip
+    if head is None or len(head) < 8:
+        how = f"within {timeout_s:g} s" if head is None else "(it closed the connection)"
+        raise ConnectionError(_silent(where, how, timeout_s))
+    return int(struct.unpack("<Q", head)[0])
+
+
+def _silent(where: str, how: str, timeout_s: float) -> str:
+    return (f"the server at {where} accepted the connection but did not answer as a Dask "
+            f"scheduler {how}; the timeout is {timeout_s:g} s (${TIMEOUT_ENV})")  # fmt: skip
+
+
+def probe(target: Target) -> None:
+    """Fail (ConnectionError, one line naming the address and its source) unless the scheduler
+    at ``target.address`` accepts a connection and answers as a Dask scheduler — handshake and
+    ``identity`` — each step within :func:`connect_timeout_s`."""
+    timeout_s, address, where = connect_timeout_s(), str(target.address), target.where
+    announced = _first_answer_bytes(address, where, timeout_s)
+    if announced > MAX_HANDSHAKE_BYTES:
+        raise ConnectionError(f"the server at {where} did not answer as a Dask scheduler (its "
+                              f"first message announces {announced} bytes)")  # fmt: skip
+    answer = _ask_identity(address, timeout_s)
+    error = answer.get("error")
+    if not answer or isinstance(error, (asyncio.TimeoutError, TimeoutError)):
+        raise ConnectionError(_silent(where, f"within {timeout_s:g} s", timeout_s))
+    reply = answer.get("reply")
+    if error is not None or not isinstance(reply, dict) or reply.get("type") != "Scheduler":
+        said = _what_it_said(error, reply)
+        raise ConnectionError(f"the server at {where} did not answer as a Dask "
+                              f"scheduler ({said})")  # fmt: skip
+
+
+def _what_it_said(error: BaseException | None, reply: object) -> str:
+    """Why an answer is not a Dask scheduler's, in words (not the parser's own error)."""
+    if error is None:
+        return f"it answered {reply!r:.80}"
+    if isinstance(error, OSError) and "closed" in str(error).lower():
+        return "it closed the connection"
+    return "its answer is not in Dask's protocol"
+
+
+# --- clients ------------------------------------------------------------------------------------
+
+
+def quiet_task_errors() -> Any:
+    """A Dask worker plugin: the worker does not log "Compute Failed" (with the task's
+    traceback) when a task raises — the client reports the frame in one line instead. (Made
+    here, not at import: ``distributed`` costs ~0.3 s to import.)"""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class QuietTaskErrors(WorkerPlugin):
+        name = "incandescent-quiet-task-errors"
+
+        def setup(self, worker: Any) -> None:
+            logging.getLogger("distributed.worker").addFilter(_drop_compute_failed)
+
+    return QuietTaskErrors()
+
+
+def _drop_compute_failed(record: logging.LogRecord) -> bool:
+    return not str(record.msg).startswith("Compute Failed")
+
+
 @contextlib.contextmanager
 def connect(workers: int | None, scheduler: str | None) -> Iterator[tuple[Any, int | None]]:
     """(Dask client, Dr.Jit threads per task) for ``workers`` local processes or an existing
-    ``scheduler`` (default ``$INCANDESCENT_SCHEDULER``); (None, None) for neither: in-process."""
-    scheduler = scheduler or os.environ.get(SCHEDULER_ENV) or None
-    if workers is None and scheduler is None:
+    ``scheduler`` (default ``$INCANDESCENT_SCHEDULER``); (None, None) for neither: in-process.
+    Everything is checked (:func:`resolve`, :func:`probe`) before a process starts."""
+    target = resolve(workers, scheduler)
+    if target.workers is None and target.address is None:
         yield None, None
         return
     distributed = _client_module()
     logging.getLogger("distributed").setLevel(logging.ERROR)  # its lifecycle chatter on stderr
-    if scheduler is not None:
-        with distributed.Client(scheduler, timeout="20s") as client:
+    if target.address is not None:
+        with _remote_client(distributed, target) as client:
             yield client, None
         return
-    count = int(workers or 0)
-    if count < 1:
-        raise ValueError(f"--workers must be >= 1; got {workers}")
+    count = target.workers or 1
     threads = max(1, (os.cpu_count() or 1) // count)
     cluster = distributed.LocalCluster(
         n_workers=count,
@@ -105,7 +332,21 @@ def connect(workers: int | None, scheduler: str | None) -> Iterator[tuple[Any, i
         silence_logs=logging.ERROR,
     )
     with cluster, distributed.Client(cluster) as client:
+        client.register_plugin(quiet_task_errors())
         yield client, threads
+
+
+@contextlib.contextmanager
+def _remote_client(distributed, target: Target) -> Iterator[Any]:
+    """A client of the scheduler at ``target`` once it has answered (:func:`probe`)."""
+    probe(target)
+    try:
+        client = distributed.Client(target.address, timeout=f"{connect_timeout_s()}s")
+    except Exception as error:  # noqa: BLE001 - one line naming the address
+        raise ConnectionError(f"cannot connect to the Dask scheduler at {target.where}: "
+                              f"{type(error).__name__}: {error}") from None  # fmt: skip
+    with client:
+        yield client
 
 
 def run_tasks(
@@ -123,13 +364,19 @@ def run_tasks(
             try:
                 index, shape = future.result()
             except Exception as error:  # noqa: BLE001 - reported per frame, the others go on
-                failures[task.index] = f"{task.volume.path}: {type(error).__name__}: {error}"
+                failures[task.index] = _failure(task, error)
                 continue
             on_done(index, shape)
     except KeyboardInterrupt:
         client.cancel(futures)
         raise
     return failures
+
+
+def _failure(task: FrameTask, error: BaseException) -> str:
+    """One line: the frame's file (unless the error names it already) and the error."""
+    text = f"{type(error).__name__}: {error}"
+    return text if str(task.volume.path) in str(error) else f"{task.volume.path}: {text}"
 
 
 def distributor(client, task_of: Callable[[int], FrameTask]):
