@@ -167,6 +167,45 @@ def _slab(grid, lo, x0: int, shape, z_up: bool) -> np.ndarray:
     return out
 
 
+def _occupied_by_values(grids, lo, shape, z_up: bool, leaf_shape) -> np.ndarray:
+    """Leaves (of the turned box) holding an active value or tile of any grid: from OpenVDB's
+    iterator over active values, so the cost is the active count, not the box's voxels."""
+    occupied = np.zeros(leaf_shape, dtype=bool)
+    top = np.asarray(shape) - 1
+    for grid in grids:
+        for item in grid.citerOnValues():
+            a = np.maximum(np.asarray(item.min) - lo, 0)
+            b = np.minimum(np.asarray(item.max) - lo, top)
+            if np.any(b < a):
+                continue
+            if z_up:  # turned (x, z, ny - 1 - y)
+                a, b = (a[0], a[2], top[1] - b[1]), (b[0], b[2], top[1] - a[1])
+            occupied[tuple(slice(i // LEAF, j // LEAF + 1) for i, j in zip(a, b, strict=True))] = (
+                True
+            )
+    return occupied
+
+
+def _leaf(grid, lo, leaf, shape, z_up: bool) -> np.ndarray:
+    """The turned box's leaf at leaf index ``leaf`` (8³[, 3]), background outside the box."""
+    vector = grid.valueTypeName == "vec3s"
+    t = [LEAF * int(c) for c in leaf]
+    start = np.array((t[0], shape[1] - LEAF - t[2], t[1]) if z_up else t)
+    block = np.empty((LEAF,) * 3 + ((3,) if vector else ()), dtype=np.float32)
+    block[...] = grid.background
+    a, b = np.maximum(start, 0), np.minimum(start + LEAF, shape)
+    if np.all(b > a):
+        part = np.empty(tuple(b - a) + block.shape[3:], dtype=np.float32)
+        part[...] = grid.background
+        grid.copyToArray(part, ijk=tuple(int(v) for v in np.asarray(lo) + a))
+        block[tuple(slice(i, j) for i, j in zip(a - start, b - start, strict=True))] = part
+    if z_up:  # as _slab turns its slab
+        block = np.swapaxes(block, 1, 2)[:, :, ::-1]
+        if vector:
+            block = np.stack([block[..., 0], block[..., 2], -block[..., 1]], axis=-1)
+    return block
+
+
 def _leaf_view(slab: np.ndarray) -> np.ndarray:
     """(ly, lz, 8, 8, 8[, 3]) leaves of one whole-leaf slab."""
     _, ny, nz = slab.shape[:3]
@@ -202,21 +241,30 @@ def leaves(request: dict) -> dict:
     grids = [_grid(path, name) for name in request["names"]]
     turned = (shape[0], shape[2], shape[1]) if z_up else shape
     leaf_shape = tuple(-(-n // LEAF) for n in turned)
-    occupied = np.zeros(leaf_shape, dtype=bool)
-    for cx, x0 in enumerate(range(0, shape[0], LEAF)):
-        for grid in grids:
-            occupied[cx] |= _differs(grid, _slab(grid, lo, x0, shape, z_up))
+    few = sum(g.activeVoxelCount() for g in grids) * LEAF < np.prod(shape, dtype=np.float64)
+    if few:  # a few voxels over a huge box: walk the active values, never copy the box
+        occupied = _occupied_by_values(grids, lo, shape, z_up, leaf_shape)
+    else:
+        occupied = np.zeros(leaf_shape, dtype=bool)
+        for cx, x0 in enumerate(range(0, shape[0], LEAF)):
+            for grid in grids:
+                occupied[cx] |= _differs(grid, _slab(grid, lo, x0, shape, z_up))
     keep = _dilate(occupied)
     for _ in range(int(request.get("rings", 0))):  # motion blur reads farther: more rings
         keep = _dilate(keep)
     coords = np.argwhere(keep).astype(np.int32)
     files = {}
     for i, grid in enumerate(grids):
-        parts = [
-            _leaf_view(_slab(grid, lo, cx * LEAF, shape, z_up))[keep[cx]]
-            for cx in range(leaf_shape[0])
-            if keep[cx].any()
-        ]
+        if few:
+            parts = (
+                [np.stack([_leaf(grid, lo, c, shape, z_up) for c in coords])] if len(coords) else []
+            )
+        else:
+            parts = [
+                _leaf_view(_slab(grid, lo, cx * LEAF, shape, z_up))[keep[cx]]
+                for cx in range(leaf_shape[0])
+                if keep[cx].any()
+            ]
         values = np.concatenate(parts) if parts else np.zeros((0, LEAF, LEAF, LEAF), np.float32)
         files[grid.name] = os.path.join(request["out"], f"leaves_{i}.npy")
         np.save(files[grid.name], values, allow_pickle=False)

@@ -296,7 +296,7 @@ def _scatter_leaves(dense: NDArray, coords: NDArray, leaves: NDArray) -> None:
     full = dense if whole else np.zeros(_padded(dense.shape[:3]) + dense.shape[3:], dense.dtype)
     _blocks(full)[tuple(coords.T)] = leaves  # _blocks of whole leaves is a view of ``full``
     if not whole:
-        nx, ny, nz = dense.shape
+        nx, ny, nz = dense.shape[:3]  # a vector grid has a fourth axis
         dense[...] = full[:nx, :ny, :nz]
 
 
