@@ -549,6 +549,7 @@ def simulate_and_render(
         plan_output,
         record_frames,
     )
+    from incandescent.animation import frame_path as animation_frame_path
     from incandescent.io.atomic import exclusive_lock
 
     out_dir = Path(out_dir)
@@ -570,6 +571,10 @@ def simulate_and_render(
             index = report.frame - 1
             task = _fire_task(index, report.path, view["camera"], view["settings"], display,
                               backend, folder, threads)  # fmt: skip
+            # Its manifest entry before its PNG (the old one removed): a killed run resumes.
+            animation_frame_path(folder, index).unlink(missing_ok=True)
+            key = frame_key(describe(index), view["camera"], view["settings"], display)
+            record_frames(folder, {index: key})
             if client is None:  # in-process: render it now, before the next frame
                 futures[index] = _Done(task)
             else:
@@ -578,15 +583,12 @@ def simulate_and_render(
                 )
 
         simulate(settings, resolution, frames, out_dir, backend, suffix, overwrite, submit, limits)
-        failures, keys = {}, {}
+        failures = {}
         for index, future in futures.items():
             try:
                 future.result()
             except Exception as error:  # noqa: BLE001 - reported per frame
                 failures[index] = f"{paths[index]}: {type(error).__name__}: {error}"
-                continue
-            keys[index] = frame_key(describe(index), view["camera"], view["settings"], display)
-        record_frames(folder, keys)
         if failures:
             raise FramesFailed(failures)
     return assemble_video(folder, frames, video, settings.fps, overwrite)
