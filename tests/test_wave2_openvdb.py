@@ -226,3 +226,59 @@ def test_a_few_hundred_voxels_over_a_2000_cube_render_sparse_quickly(tmp_path):
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     assert time.monotonic() - start < 25  # the worker's own read limit is 30 s
+
+
+@pytest.fixture(scope="module")
+def small_vdb(tmp_path_factory) -> Path:
+    """A real ~30 KB .vdb written by OpenVDB: scattered hot voxels and their absorption."""
+    path = tmp_path_factory.mktemp("vdb") / "good.vdb"
+    rng = np.random.default_rng(5)
+    temp = np.where(rng.random((24, 24, 24)) < 0.3, 1500.0, 0.0).astype(np.float32)
+    grids = {"temperature": temp, "absorption": (temp > 0).astype(np.float32) * 5}
+    openvdb.write(path, grids, 0.01, (0.0, 0.0, 0.0), {})
+    return path
+
+
+@needs_openvdb
+@pytest.mark.parametrize("seed", range(12))
+def test_a_bit_flipped_vdb_reads_or_fails_in_one_line_under_the_budget(tmp_path, small_vdb, seed):
+    """Four seeded bit flips: a clean render or one line naming the file, within the budget
+    (some flips make OpenVDB allocate gigabytes: under 256 MiB they fail at once) and in time
+    (a dead worker is 'crashed', not 'did not finish within 30 s')."""
+    data = bytearray(small_vdb.read_bytes())
+    rng = np.random.default_rng(seed)
+    for at in rng.integers(0, len(data), 4):
+        data[at] ^= 1 << int(rng.integers(0, 8))
+    bad = tmp_path / "flipped.vdb"
+    bad.write_bytes(bytes(data))
+    args = ["render", str(bad), "-o", str(tmp_path / "o.png"), "--width", "8", "--height", "8"]
+    start = time.monotonic()
+    run = subprocess.run(
+        [sys.executable, "-m", "incandescent.cli", *args, "--max-memory", "0.25"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    elapsed = time.monotonic() - start
+    assert run.returncode in (0, 2), run.stdout + run.stderr
+    assert elapsed < 25, run.stderr  # the worker's read limit is 30 s: nothing may hang to it
+    if run.returncode == 2:
+        lines = [line for line in run.stderr.splitlines() if line.strip()]
+        assert len(lines) == 1 and "flipped.vdb" in lines[0] and "Traceback" not in lines[0]
+        assert "did not finish" not in lines[0], lines[0]
+    if seed in (0, 6):  # these flips claim huge sizes: refused by the worker's cap, not swapped
+        assert "256 MiB allowed" in run.stderr, run.stderr
+
+
+@needs_openvdb
+def test_the_worker_runs_under_the_memory_budget(small_vdb):
+    """The worker's address space is capped at its mapping at start plus --max-memory."""
+    openvdb.set_memory_budget(256 * 2**20)
+    try:
+        openvdb.describe(small_vdb, sums=True)  # a new file: the worker (re)started for it
+        worker = openvdb._WORKERS[openvdb.interpreter()]
+        limits = Path(f"/proc/{worker.process.pid}/limits").read_text()
+        line = next(x for x in limits.splitlines() if x.startswith("Max address space"))
+        assert line.split()[3] != "unlimited" and int(line.split()[3]) < 8 * 2**30, line
+    finally:
+        openvdb.set_memory_budget(None)

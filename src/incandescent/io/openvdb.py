@@ -207,7 +207,7 @@ def ask(path: Path, request: dict) -> dict:
         timeout_s = read_timeout_s(path)
         reply = worker.ask(request, timeout_s)
         if reply is None:
-            hung = worker.process.poll() is None
+            hung = not _exited(worker.process)
             worker.close()
             del _WORKERS[python]
             what = f"did not finish within {timeout_s:.0f} s" if hung else "crashed"
@@ -223,6 +223,16 @@ def ask(path: Path, request: dict) -> dict:
         doing = "cannot write it" if request.get("op") == "write" else "cannot read it"
         raise ValueError(f"{path}: OpenVDB {doing} ({reply.get('error')})")
     return reply
+
+
+def _exited(process: subprocess.Popen, grace_s: float = 2.0) -> bool:
+    """Did the worker exit (closed its pipe and died: a crash), rather than hang? A worker that
+    crashed is not always reaped when its pipe closes, so it gets ``grace_s`` to be seen dead."""
+    try:
+        process.wait(timeout=grace_s)
+    except subprocess.TimeoutExpired:
+        return False
+    return True
 
 
 #: The last descriptions, by file (path, inode, size, modification time) and options: a render
