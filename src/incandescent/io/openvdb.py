@@ -243,13 +243,18 @@ _DESCRIBED_KEPT = 8
 _DESCRIBED_LOCK = threading.Lock()  # the read-ahead thread describes files too
 
 
-def describe(path: Path, sums: bool = False, ranges: bool = True) -> list[dict]:
+def describe(
+    path: Path, sums: bool = False, ranges: bool = True, max_bytes: int | None = None
+) -> list[dict]:
     """Every grid of the file as the worker describes it (see ``openvdb_worker``); with
     ``sums``, float grids also get the sum of their active values (tiles included); without
     ``ranges``, no value ranges (what a read needs: a vector range visits every value).
-    Remembered while the file's inode, size and modification time stay the same."""
+    Remembered while the file's inode, size and modification time stay the same. ``max_bytes``:
+    the worker may allocate at most this much for it (a read-back of a file just written)."""
     resolved = path.resolve()
     request = {"op": "describe", "path": str(resolved), "sums": sums, "ranges": ranges}
+    if max_bytes:
+        request["max_bytes"] = int(max_bytes)
     try:
         stat = resolved.stat()
     except OSError:  # the worker says what is wrong with the path

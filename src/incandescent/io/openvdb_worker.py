@@ -25,6 +25,7 @@ Every reply has ``"ok"``; failures carry ``"error"``.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
@@ -312,7 +313,8 @@ def main() -> None:  # noqa: D103
     for line in sys.stdin:
         try:
             request = json.loads(line)
-            reply = OPS[request["op"]](request)
+            with _request_memory(request.get("max_bytes")):
+                reply = OPS[request["op"]](request)
             reply["ok"] = True
         except MemoryError:  # OpenVDB's std::bad_alloc too: a corrupt header claims huge sizes
             reply = {"ok": False, "error": f"needs more than the {budget} MiB allowed", "memory": 1}
@@ -325,6 +327,30 @@ def main() -> None:  # noqa: D103
 BUDGET_ENV = "INCANDESCENT_OPENVDB_MAX_BYTES"
 
 
+@contextlib.contextmanager
+def _request_memory(max_bytes):
+    """For one request, a tighter soft RLIMIT_AS: what is mapped now plus ``max_bytes`` (a
+    read-back of a file just written needs about its grids' size; a truncated one may make
+    OpenVDB allocate without bound). The soft limit returns to the hard one afterwards."""
+    import resource
+
+    if not max_bytes:
+        yield
+        return
+    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    cap = _mapped_bytes() + int(max_bytes)
+    resource.setrlimit(resource.RLIMIT_AS, (cap if hard < 0 else min(cap, hard), hard))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+
+
+def _mapped_bytes() -> int:
+    with open("/proc/self/status", encoding="ascii") as status:
+        return next(int(x.split()[1]) * 1024 for x in status if x.startswith("VmSize:"))
+
+
 def _limit_memory() -> int:
     """Cap this process's address space at what it maps now plus the budget (RLIMIT_AS), so a
     corrupt file that makes OpenVDB allocate without bound fails with MemoryError instead of
@@ -334,8 +360,7 @@ def _limit_memory() -> int:
     budget = int(float(os.environ.get(BUDGET_ENV) or 0))
     if budget <= 0:
         return 0
-    with open("/proc/self/status", encoding="ascii") as status:
-        mapped = next(int(x.split()[1]) * 1024 for x in status if x.startswith("VmSize:"))
+    mapped = _mapped_bytes()
     resource.setrlimit(resource.RLIMIT_AS, (mapped + budget, mapped + budget))
     return budget >> 20
 

@@ -97,16 +97,37 @@ _UNITS = {"temperature": "kelvin", "absorption": "1/m", "velocity": "m/s"}
 
 
 def _check_vdb(tmp: Path, grids: dict[str, np.ndarray]) -> None:
-    """OpenVDB reads ``tmp`` back with every grid written (OpenVDB does not report a write cut
-    short by a full disk: the file must prove itself before it replaces anything)."""
+    """OpenVDB reads ``tmp`` back with every grid written and each grid's active voxel count
+    (OpenVDB does not report a write cut short by a full disk: the file must prove itself before
+    it replaces anything)."""
     from incandescent.io import openvdb
 
     try:
-        found = {g["name"] for g in openvdb.describe(tmp, ranges=False)}
+        described = openvdb.describe(tmp, ranges=False, max_bytes=_read_back_bytes(grids))
+        found = {g["name"]: g.get("active_voxels") for g in described}
     except ValueError as error:
         raise ValueError(str(error).removeprefix(f"{tmp}: ")) from None
-    if found != set(grids):
+    if set(found) != set(grids):
         raise ValueError(f"it holds grids {sorted(found)}, not the {sorted(grids)} written")
+    for name, values in grids.items():
+        if found[name] != _active_voxels(values):
+            raise ValueError(
+                f"grid {name!r} holds {found[name]} active voxels, not the "
+                f"{_active_voxels(values)} written"
+            )
+
+
+def _read_back_bytes(grids: dict[str, np.ndarray]) -> int:
+    """What reading back a file of ``grids`` may allocate: twice their float32 size and 64 MiB
+    (a truncated file can make OpenVDB allocate without bound: it then fails fast instead)."""
+    return 2 * sum(np.asarray(g).size * 4 for g in grids.values()) + 64 * 2**20
+
+
+def _active_voxels(values: np.ndarray) -> int:
+    """Voxels the OpenVDB writer makes active: those that differ from the background 0 (a vector
+    grid's: any component)."""
+    different = np.asarray(values, dtype=np.float32) != 0
+    return int(np.count_nonzero(different.any(axis=-1) if different.ndim == 4 else different))
 
 
 def save_volume(volume, path: str | Path, overwrite: bool = False) -> Path:
