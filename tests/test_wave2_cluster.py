@@ -284,3 +284,39 @@ def test_animate_workers_killed_mid_run_resumes_without_overwrite(tmp_path):
     assert "rendered from other input" not in both
     reused = int(both.split(" reused)")[0].rsplit("rendered, ", 1)[1])
     assert reused >= len(finished) and len(list(out.glob("frame_*.png"))) == 12
+
+
+# --- item 2, one deadline: every step of the connection together ------------------------------
+
+
+def _drips(conn: socket.socket) -> None:
+    """Dask's first 8 bytes one at a time, 0.6 s apart (each recv alone would be in time)."""
+    for byte in struct.pack("<Q", 100):
+        conn.sendall(bytes([byte]))
+        time.sleep(0.6)
+
+
+def test_a_server_that_drips_bytes_fails_within_one_timeout_in_total(monkeypatch):
+    monkeypatch.setenv(cluster.TIMEOUT_ENV, "2")
+    with _server(_drips) as address:
+        start = time.monotonic()
+        with pytest.raises(ConnectionError, match=r"did not answer as a Dask scheduler within 2 s"):
+            cluster.probe(cluster.resolve(None, address))
+        elapsed = time.monotonic() - start
+    assert elapsed < 2 + 3  # 8 drips x 0.6 s would be 4.8 s: one deadline, not one per recv
+
+
+def test_the_clients_own_connection_is_bounded_by_the_same_timeout(monkeypatch):
+    """Past the probe, ``distributed.Client`` connects again, and Dask's ``connect`` does not
+    bound the handshake: a server that stays silent then must fail within the timeout too."""
+    monkeypatch.setenv(cluster.TIMEOUT_ENV, "2")
+    monkeypatch.setattr(cluster, "probe", lambda target, deadline=None: None)
+    with _server(_silent) as address:
+        start = time.monotonic()
+        with pytest.raises(ConnectionError) as raised:
+            with cluster.connect(None, address):
+                pytest.fail("connected to a silent server")
+        elapsed = time.monotonic() - start
+    line = str(raised.value)
+    assert f"{address} (from --scheduler)" in line and "\n" not in line
+    assert elapsed < 2 + 5

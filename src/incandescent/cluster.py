@@ -6,8 +6,9 @@ processes (Dr.Jit's thread count set so that N workers × threads ≤ the cores)
 machine's memory), checked before anything starts. ``--scheduler tcp://HOST:PORT`` (or, without
 ``--workers``, ``$INCANDESCENT_SCHEDULER``) uses an existing cluster: the address is checked
 first (``tcp://HOST:PORT``, port 1–65535), then the scheduler must answer Dask's handshake and an
-``identity`` request within ``CONNECT_TIMEOUT_S`` seconds (``$INCANDESCENT_SCHEDULER_TIMEOUT``
-overrides it); errors name the address and where it came from. What travels to a worker is a
+``identity`` request, and the client connect, all within ``CONNECT_TIMEOUT_S`` seconds in total
+(``$INCANDESCENT_SCHEDULER_TIMEOUT`` overrides it); errors name the address and where it came
+from. What travels to a worker is a
 :class:`FrameTask` — the frame's volume section (a path and how to read it), camera, render and
 display settings and the PNG's path — never a volume or an image: workers need the package
 installed and the inputs and outputs on storage they share with the client. The client keeps
@@ -27,6 +28,7 @@ import os
 import socket
 import struct
 import threading
+import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,8 +44,9 @@ if TYPE_CHECKING:
 #: Times a frame is tried again when its worker dies (SIGKILL, out of memory).
 RETRIES = 2
 SCHEDULER_ENV = "INCANDESCENT_SCHEDULER"
-#: Seconds the whole connection to a scheduler may take: TCP connect, Dask's handshake and its
-#: answer to an ``identity`` request (``$INCANDESCENT_SCHEDULER_TIMEOUT`` overrides it).
+#: Seconds the whole connection to a scheduler may take, all steps together: TCP connect, Dask's
+#: handshake, its answer to an ``identity`` request and the client's own connection with its
+#: handshake (``$INCANDESCENT_SCHEDULER_TIMEOUT`` overrides it).
 CONNECT_TIMEOUT_S = 20.0
 TIMEOUT_ENV = "INCANDESCENT_SCHEDULER_TIMEOUT"
 #: ``--workers`` is at most this many processes per core ...
@@ -208,21 +211,34 @@ async def _identity(address: str) -> Any:
         comm.abort()
 
 
-def _ask_identity(address: str, timeout_s: float) -> dict:
-    """{'reply': …} or {'error': …} or {} (no answer within ``timeout_s``), on a helper thread
-    that is abandoned (a daemon) if the far end never answers."""
+def _left_s(deadline: float) -> float:
+    """Seconds left until ``deadline`` (a ``time.monotonic()`` value), at least a few ms."""
+    return max(0.01, deadline - time.monotonic())
+
+
+def _bounded(work: Callable[[], Any], deadline: float, name: str) -> dict:
+    """{'reply': work()} or {'error': …} or {} (not done by ``deadline``), run on a helper
+    thread that is abandoned (a daemon) if ``work`` does not return in time: Dask's own
+    ``connect`` does not bound its handshake."""
     box: dict = {}
 
-    def ask() -> None:
+    def call() -> None:
         try:
-            box["reply"] = asyncio.run(asyncio.wait_for(_identity(address), timeout_s))
+            box["reply"] = work()
         except BaseException as error:  # noqa: BLE001 - every failure is reported as one line
             box["error"] = error
 
-    helper = threading.Thread(target=ask, name="incandescent-scheduler-probe", daemon=True)
+    helper = threading.Thread(target=call, name=name, daemon=True)
     helper.start()
-    helper.join(timeout_s + 1.0)
+    helper.join(_left_s(deadline) + 0.5)
     return dict(box)
+
+
+def _ask_identity(address: str, deadline: float) -> dict:
+    """The scheduler's ``identity`` as :func:`_bounded` reports it."""
+    timeout_s = _left_s(deadline)
+    ask = lambda: asyncio.run(asyncio.wait_for(_identity(address), timeout_s))  # noqa: E731
+    return _bounded(ask, deadline, "incandescent-scheduler-probe")
 
 
 #: A scheduler's handshake is a few hundred bytes; an answer announcing more is not one (and
@@ -230,16 +246,14 @@ def _ask_identity(address: str, timeout_s: float) -> dict:
 MAX_HANDSHAKE_BYTES = 1 << 20
 
 
-def _first_answer_bytes(address: str, where: str, timeout_s: float) -> int:
+def _first_answer_bytes(address: str, where: str, deadline: float, timeout_s: float) -> int:
     """Connect by TCP and read the size the far end announces for its first message (Dask's
-    server speaks first: its handshake); ConnectionError naming ``where`` if none comes."""
+    server speaks first: its handshake) by ``deadline``; ConnectionError naming ``where`` if
+    none comes (``timeout_s``: the whole connection's, for the message)."""
     host, _, port = address.removeprefix("tcp://").rpartition(":")
     try:
-        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s) as sock:
-            sock.settimeout(timeout_s)
-            head = b""
-            while len(head) < 8 and (chunk := sock.recv(8 - len(head))):
-                head += chunk
+        with socket.create_connection((host.strip("[]"), int(port)), _left_s(deadline)) as sock:
+            head = _read_bytes(sock, 8, deadline)
     except TimeoutError:
         head = None
     except OSError as error:
@@ -251,21 +265,37 @@ def _first_answer_bytes(address: str, where: str, timeout_s: float) -> int:
     return int(struct.unpack("<Q", head)[0])
 
 
+def _read_bytes(sock: socket.socket, count: int, deadline: float) -> bytes:
+    """Up to ``count`` bytes (fewer if the far end closes); TimeoutError past ``deadline``, even
+    for a far end that sends a byte at a time."""
+    head = b""
+    while len(head) < count:
+        if time.monotonic() >= deadline:
+            raise TimeoutError
+        sock.settimeout(_left_s(deadline))
+        if not (chunk := sock.recv(count - len(head))):
+            break
+        head += chunk
+    return head
+
+
 def _silent(where: str, how: str, timeout_s: float) -> str:
     return (f"the server at {where} accepted the connection but did not answer as a Dask "
             f"scheduler {how}; the timeout is {timeout_s:g} s (${TIMEOUT_ENV})")  # fmt: skip
 
 
-def probe(target: Target) -> None:
+def probe(target: Target, deadline: float | None = None) -> None:
     """Fail (ConnectionError, one line naming the address and its source) unless the scheduler
     at ``target.address`` accepts a connection and answers as a Dask scheduler — handshake and
-    ``identity`` — each step within :func:`connect_timeout_s`."""
+    ``identity`` — by ``deadline`` (``time.monotonic()``; default: :func:`connect_timeout_s`
+    from now), all steps together."""
     timeout_s, address, where = connect_timeout_s(), str(target.address), target.where
-    announced = _first_answer_bytes(address, where, timeout_s)
+    deadline = time.monotonic() + timeout_s if deadline is None else deadline
+    announced = _first_answer_bytes(address, where, deadline, timeout_s)
     if announced > MAX_HANDSHAKE_BYTES:
         raise ConnectionError(f"the server at {where} did not answer as a Dask scheduler (its "
                               f"first message announces {announced} bytes)")  # fmt: skip
-    answer = _ask_identity(address, timeout_s)
+    answer = _ask_identity(address, deadline)
     error = answer.get("error")
     if not answer or isinstance(error, (asyncio.TimeoutError, TimeoutError)):
         raise ConnectionError(_silent(where, f"within {timeout_s:g} s", timeout_s))
@@ -338,15 +368,27 @@ def connect(workers: int | None, scheduler: str | None) -> Iterator[tuple[Any, i
 
 @contextlib.contextmanager
 def _remote_client(distributed, target: Target) -> Iterator[Any]:
-    """A client of the scheduler at ``target`` once it has answered (:func:`probe`)."""
-    probe(target)
-    try:
-        client = distributed.Client(target.address, timeout=f"{connect_timeout_s()}s")
-    except Exception as error:  # noqa: BLE001 - one line naming the address
+    """A client of the scheduler at ``target`` once it has answered (:func:`probe`), the probe
+    and the client's connection within one :func:`connect_timeout_s` together."""
+    timeout_s = connect_timeout_s()
+    deadline = time.monotonic() + timeout_s
+    probe(target, deadline)
+    with _client_by(distributed, target, deadline, timeout_s) as client:
+        yield client
+
+
+def _client_by(distributed, target: Target, deadline: float, timeout_s: float) -> Any:
+    """``distributed.Client(target.address)`` connected by ``deadline`` (its own ``timeout``
+    does not cover Dask's handshake); ConnectionError naming the address otherwise."""
+    make = lambda: distributed.Client(target.address, timeout=f"{_left_s(deadline)}s")  # noqa: E731
+    answer = _bounded(make, deadline, "incandescent-scheduler-client")
+    error = answer.get("error")
+    if not answer or isinstance(error, (asyncio.TimeoutError, TimeoutError)):
+        raise ConnectionError(_silent(target.where, f"within {timeout_s:g} s", timeout_s))
+    if error is not None:
         raise ConnectionError(f"cannot connect to the Dask scheduler at {target.where}: "
                               f"{type(error).__name__}: {error}") from None  # fmt: skip
-    with client:
-        yield client
+    return answer["reply"]
 
 
 def run_tasks(
