@@ -320,3 +320,53 @@ def test_the_clients_own_connection_is_bounded_by_the_same_timeout(monkeypatch):
     line = str(raised.value)
     assert f"{address} (from --scheduler)" in line and "\n" not in line
     assert elapsed < 2 + 5
+
+
+# --- Ctrl-C and a busy default port: nothing but our lines ----------------------------------
+
+
+def _sigint_default() -> None:
+    """In the child: SIGINT as a terminal leaves it (a background job may inherit it ignored)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+@pytest.mark.slow
+def test_ctrl_c_of_animate_workers_is_one_line_and_resumes_without_overwrite(tmp_path):
+    """SIGINT to the whole process group, as a terminal's Ctrl-C sends it: the workers leave it
+    to the client (no KeyboardInterrupt tracebacks from them), exit 130, and the rerun without
+    --overwrite reuses every finished frame."""
+    pattern = _sequence(tmp_path, n=16, size=64)
+    out = tmp_path / "frames"
+    args = [pattern, "-o", out, "--width", 240, "--height", 180, "--workers", 2]
+    run = subprocess.Popen(_cli(*args), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                           start_new_session=True, preexec_fn=_sigint_default)  # fmt: skip
+    deadline = time.time() + 180
+    while len(list(out.glob("frame_*.png"))) < 2 and time.time() < deadline:
+        time.sleep(0.02)
+    os.killpg(run.pid, signal.SIGINT)
+    output, _ = run.communicate(timeout=60)
+    finished = {p.name for p in out.glob("frame_*.png")}
+    assert run.returncode == 130, output
+    assert "Traceback" not in output and "KeyboardInterrupt" not in output, output
+    assert "interrupted: no output was left half-written" in output
+    rerun = subprocess.run(_cli(*args), capture_output=True, text=True, timeout=300)
+    both = " ".join((rerun.stdout + rerun.stderr).split())
+    assert rerun.returncode == 0, both
+    reused = int(both.split(" reused)")[0].rsplit("rendered, ", 1)[1])
+    assert reused >= len(finished) and len(list(out.glob("frame_*.png"))) == 16
+
+
+@pytest.mark.slow
+def test_local_workers_say_nothing_when_the_default_dashboard_port_is_taken(tmp_path):
+    """Dask's scheduler serves HTTP even without a dashboard, on 8787 by default; with that
+    port taken it warned on stderr: the local scheduler now takes a free port."""
+    holder = socket.socket()
+    with contextlib.suppress(OSError):  # taken already: the case under test as well
+        holder.bind(("", 8787))
+        holder.listen()
+    pattern = _sequence(tmp_path, n=3)
+    run = subprocess.run(_cli(pattern, "-o", tmp_path / "out", *ARGS, "--workers", 2),
+                         capture_output=True, text=True, timeout=300)  # fmt: skip
+    holder.close()
+    assert run.returncode == 0, run.stderr
+    assert "Warning" not in run.stderr and "8787" not in run.stderr, run.stderr

@@ -15,7 +15,8 @@ installed and the inputs and outputs on storage they share with the client. The 
 the manifest (each frame's entry written before its PNG can exist, ``incandescent.animation``),
 so resume works whatever the number of workers. A task that dies with its worker is retried
 (``RETRIES``); one that fails by itself (a corrupt input) is reported by frame and file while the
-others finish — local workers do not log its traceback (:func:`quiet_task_errors`).
+others finish — local workers do not log its traceback, and leave Ctrl-C to the client, which
+stops them (:func:`dask_setup`).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import contextlib
 import logging
 import math
 import os
+import signal
 import socket
 import struct
 import threading
@@ -318,19 +320,15 @@ def _what_it_said(error: BaseException | None, reply: object) -> str:
 # --- clients ------------------------------------------------------------------------------------
 
 
-def quiet_task_errors() -> Any:
-    """A Dask worker plugin: the worker does not log "Compute Failed" (with the task's
-    traceback) when a task raises — the client reports the frame in one line instead. (Made
-    here, not at import: ``distributed`` costs ~0.3 s to import.)"""
-    from distributed.diagnostics.plugin import WorkerPlugin
-
-    class QuietTaskErrors(WorkerPlugin):
-        name = "incandescent-quiet-task-errors"
-
-        def setup(self, worker: Any) -> None:
-            logging.getLogger("distributed.worker").addFilter(_drop_compute_failed)
-
-    return QuietTaskErrors()
+def dask_setup(worker: Any) -> None:
+    """Run by Dask in each local worker process as it starts (``preload``; a restarted worker
+    too): the worker does not log "Compute Failed" with the task's traceback — the client
+    reports the frame in one line — and ignores SIGINT: Ctrl-C on a terminal reaches every
+    process of the group, and the client, which stops its workers, is the one to answer it
+    (a worker's KeyboardInterrupt is a traceback)."""
+    logging.getLogger("distributed.worker").addFilter(_drop_compute_failed)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _drop_compute_failed(record: logging.LogRecord) -> bool:
@@ -359,10 +357,13 @@ def connect(workers: int | None, scheduler: str | None) -> Iterator[tuple[Any, i
         threads_per_worker=1,
         processes=True,
         dashboard_address=None,
+        # the scheduler's HTTP server (health checks) even without a dashboard: on a free port
+        # of its own, not 8787 with a warning on stderr when another cluster holds that one
+        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
         silence_logs=logging.ERROR,
+        preload=[__name__],  # dask_setup
     )
     with cluster, distributed.Client(cluster) as client:
-        client.register_plugin(quiet_task_errors())
         yield client, threads
 
 
