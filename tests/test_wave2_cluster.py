@@ -370,3 +370,35 @@ def test_local_workers_say_nothing_when_the_default_dashboard_port_is_taken(tmp_
     holder.close()
     assert run.returncode == 0, run.stderr
     assert "Warning" not in run.stderr and "8787" not in run.stderr, run.stderr
+
+
+# --- item 6 in-process: killed right after a frame's commit -----------------------------------
+
+
+def test_animate_interrupted_just_after_a_frame_is_committed_resumes_without_overwrite(
+    tmp_path, monkeypatch
+):
+    """The window the issue hit: a frame on disk whose run died before it wrote the manifest
+    again. The entry is written before the frame, so the rerun reuses both finished frames."""
+    from incandescent import animation
+
+    pattern, out, real, written = (
+        _sequence(tmp_path, n=4),
+        tmp_path / "out",
+        animation.write_png,
+        [],
+    )
+
+    def commits_then_dies(path, *args, **kwargs):
+        real(path, *args, **kwargs)
+        written.append(path)
+        if len(written) == 2:
+            raise KeyboardInterrupt  # as if Ctrl-C came between this commit and anything after
+
+    monkeypatch.setattr(animation, "write_png", commits_then_dies)
+    code, output = _animate(pattern, "-o", out, *ARGS)
+    assert code == 130 and "interrupted" in output, output
+    assert sorted(p.name for p in out.glob("frame_*.png")) == [p.name for p in written]
+    monkeypatch.setattr(animation, "write_png", real)
+    code, output = _animate(pattern, "-o", out, *ARGS)
+    assert code == 0 and "2 rendered, 2 reused" in " ".join(output.split()), output
