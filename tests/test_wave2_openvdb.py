@@ -282,3 +282,22 @@ def test_the_worker_runs_under_the_memory_budget(small_vdb):
         assert line.split()[3] != "unlimited" and int(line.split()[3]) < 8 * 2**30, line
     finally:
         openvdb.set_memory_budget(None)
+
+
+@needs_openvdb
+def test_the_read_back_compares_active_voxel_counts(tmp_path):
+    """The verify step of a .vdb write: a file whose grid lost voxels (a cut-short write that
+    OpenVDB still parses) is refused; the file as written passes."""
+    from incandescent.io.output import _check_vdb
+
+    T = np.zeros((8, 8, 8), np.float32)
+    T[2:5, 2:5, 2:5] = 1500.0
+    v = np.zeros((8, 8, 8, 3), np.float32)
+    v[3, 3, 3] = (0.0, 0.0, 1.0)
+    path = tmp_path / "t.vdb"
+    openvdb.write(path, {"temperature": T, "velocity": v}, 0.01, (0.0, 0.0, 0.0), {})
+    _check_vdb(path, {"temperature": T, "velocity": v})
+    more = T.copy()
+    more[7, 7, 7] = 1.0
+    with pytest.raises(ValueError, match="'temperature' holds 27 active voxels, not the 28"):
+        _check_vdb(path, {"temperature": more, "velocity": v})
