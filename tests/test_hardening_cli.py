@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import signal
 import stat
 import subprocess
@@ -19,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _mounts import skip_without_private_mounts
 from PIL import Image
 from typer.testing import CliRunner
 
@@ -313,11 +313,7 @@ def test_output_that_is_a_folder_is_refused(tmp_path, volume):
 
 def _in_private_mount(mount_options: str, folder: Path, *args) -> subprocess.CompletedProcess:
     """Run the CLI with a tmpfs mounted on ``folder`` in a private mount namespace."""
-    if shutil.which("unshare") is None:
-        pytest.skip("needs unshare(1) for a private mount namespace")
-    probe = subprocess.run(["unshare", "-rm", "true"], capture_output=True)
-    if probe.returncode != 0:
-        pytest.skip(f"user or mount namespaces unavailable: {probe.stderr.decode().strip()}")
+    skip_without_private_mounts()
     folder.mkdir()
     command = " ".join(map(str, [sys.executable, "-m", "incandescent.cli", *args]))
     script = f"mount -t tmpfs -o {mount_options} tmpfs {folder} && {command}"

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _mounts import skip_without_private_mounts
 from typer.testing import CliRunner
 
 from incandescent.cli import app
@@ -42,11 +43,7 @@ def frame(tmp_path_factory) -> Path:
 
 
 def _in_tmpfs(size: str, folder: Path, script: str) -> subprocess.CompletedProcess:
-    if shutil.which("unshare") is None:
-        pytest.skip("needs unshare(1) for a private mount namespace")
-    probe = subprocess.run(["unshare", "-rm", "true"], capture_output=True)
-    if probe.returncode != 0:
-        pytest.skip(f"user or mount namespaces unavailable: {probe.stderr.decode().strip()}")
+    skip_without_private_mounts()
     folder.mkdir()
     full = f"mount -t tmpfs -o size={size} tmpfs {folder} && {script}"
     return subprocess.run(["unshare", "-rm", "sh", "-c", full], capture_output=True, text=True)

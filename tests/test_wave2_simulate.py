@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _mounts import skip_without_private_mounts
 from typer.testing import CliRunner
 
 from incandescent.cli import app
@@ -88,11 +89,7 @@ def test_on_resume_only_the_frame_after_the_checkpoint_may_be_replaced(tmp_path)
 def _full_disk_run(tmp_path: Path, suffix: str, free_kib: int) -> tuple[str, Path]:
     """Frame 1 in a 2 MiB tmpfs, then the disk filled up to ``free_kib`` KiB and frames 2–3
     asked for; returns (stderr, a copy of the folder as the failed run left it)."""
-    if shutil.which("unshare") is None:
-        pytest.skip("needs unshare(1) for a private mount namespace")
-    probe = subprocess.run(["unshare", "-rm", "true"], capture_output=True)
-    if probe.returncode != 0:
-        pytest.skip(f"user or mount namespaces unavailable: {probe.stderr.decode().strip()}")
+    skip_without_private_mounts()
     mount, kept = tmp_path / "mnt", tmp_path / "kept"
     mount.mkdir()
     command = " ".join([sys.executable, "-m", "incandescent.cli", "simulate", "torch", *TINY,
