@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from incandescent.renderer.backends.jit import cuda_problem, llvm_problem
+from incandescent._jit import cuda_problem, llvm_problem
 
 
 def backend_param(name: str):

@@ -192,8 +192,8 @@ def test_bench_json_reports_every_case():
 
 
 def test_cpu_description_names_model_cores_and_widest_simd():
+    from incandescent._parallel import workers
     from incandescent.benchmark import cpu_description
-    from incandescent.volume.slabs import workers
 
     zen3 = "model name\t: AMD EPYC 7B13\ncpu family\t: 25\nmodel\t\t: 1\nflags\t\t: fpu avx2 fma\n"
     text = cpu_description(zen3)
@@ -470,7 +470,7 @@ def test_bench_cold_frames_render_the_same_samples_as_warm():
 def test_a_backend_that_cannot_run_is_refused_before_the_volume_is_read(tmp_path):
     """`render` loads its backend before reading the volume (a .vdb's OpenVDB worker starts
     meanwhile): a backend that cannot run fails first, naming itself, not the file."""
-    from incandescent.renderer.backends.jit import cuda_problem
+    from incandescent._jit import cuda_problem
 
     if cuda_problem() is None:
         pytest.skip("a CUDA GPU is present: the cuda backend can run")

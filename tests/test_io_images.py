@@ -85,7 +85,7 @@ def test_exr_compressed_on_every_core_is_the_same_file(tmp_path):
     compresses in parallel make the same file as one thread does."""
     import OpenEXR
 
-    from incandescent.volume.slabs import workers
+    from incandescent._parallel import workers
 
     rgb = np.random.default_rng(3).random((96, 64, 3), dtype=np.float32) * 4.0
     before = OpenEXR.global_thread_count()

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from incandescent import scenes
+from incandescent._jit import array_module, cuda_problem
 from incandescent.camera import Camera
 from incandescent.renderer import RenderSettings, render
 from incandescent.renderer.backends import BackendUnavailable, available_backends, resolve_backend
-from incandescent.renderer.backends.jit import array_module, cuda_problem
 from incandescent.renderer.backends.march import (
     _device_grid,
     _host_packed,
@@ -335,7 +335,7 @@ class _FakeDrJit:
     ],
 )
 def test_llvm_check_names_what_to_install(monkeypatch, fake, expected):
-    from incandescent.renderer.backends import jit
+    from incandescent import _jit as jit
 
     monkeypatch.setattr(jit, "drjit_module", lambda: fake)
     problem = jit.llvm_problem.__wrapped__()

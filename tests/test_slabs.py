@@ -1,4 +1,4 @@
-"""Host passes split into slabs on threads (``volume.slabs``) give the serial results exactly."""
+"""Host passes split into slabs on threads (``_parallel``) give the serial results exactly."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ import threading
 import numpy as np
 import pytest
 
-from incandescent.volume import Volume, build_macrocells, slabs
+from incandescent import _parallel as slabs
+from incandescent.volume import Volume, build_macrocells
 from incandescent.volume import grid as grid_module
 
 

@@ -17,13 +17,13 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from incandescent._jit import drjit_module
+from incandescent._parallel import workers
 from incandescent._version import __version__
 from incandescent.camera import default_camera
 from incandescent.renderer import RenderSettings, render
 from incandescent.renderer.backends import available_backends
-from incandescent.renderer.backends.jit import drjit_module
 from incandescent.scenes import SCENES
-from incandescent.volume.slabs import workers
 
 
 @dataclass(frozen=True)

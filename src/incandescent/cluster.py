@@ -81,7 +81,7 @@ def render_task(task: FrameTask) -> tuple[int, tuple[int, ...]]:
     from incandescent.io.images import write_png
 
     if task.threads:
-        from incandescent.renderer.backends.jit import drjit_module
+        from incandescent._jit import drjit_module
 
         drjit_module().set_thread_count(task.threads)
     volume = api.volume_from_section(

@@ -141,7 +141,7 @@ def _openexr():
     A count set before (other than 0) is kept."""
     import OpenEXR
 
-    from incandescent.volume.slabs import workers
+    from incandescent._parallel import workers
 
     if OpenEXR.global_thread_count() == 0:
         OpenEXR.set_global_thread_count(workers())

@@ -139,7 +139,7 @@ class DrJitOps(Ops):
     """Dr.Jit on ``kind`` "cpu" (LLVM) or "cuda", float32."""
 
     def __init__(self, kind: str) -> None:
-        from incandescent.renderer.backends.jit import array_module, drjit_module
+        from incandescent._jit import array_module, drjit_module
 
         self.m, self.dr, self.name = array_module(kind), drjit_module(), kind
 

@@ -21,8 +21,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from incandescent import _validate
+from incandescent._parallel import map_slabs
 from incandescent.volume.macrocells import MacrocellGrid, build_macrocells
-from incandescent.volume.slabs import map_slabs
 
 #: Voxels at or above this temperature absorb under the default absorption, K.
 DEFAULT_ABSORPTION_MIN_K = 500.0

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from incandescent.volume.slabs import map_slabs
+from incandescent._parallel import map_slabs
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,8 @@ from __future__ import annotations
 import logging
 import os
 
+from incandescent._jit import BackendUnavailable, cuda_problem, llvm_problem
 from incandescent.renderer.backends.common import MarchInputs, MarchResult
-from incandescent.renderer.backends.jit import BackendUnavailable, cuda_problem, llvm_problem
 
 BACKENDS = ("reference", "cpu", "cuda")
 ENV_VAR = "INCANDESCENT_BACKEND"

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from incandescent.renderer.backends.jit import drjit_module
+from incandescent._jit import drjit_module
 from incandescent.volume.sparse import LEAF, SparseVolume
 
 #: Padded voxels along each side of a device brick: 8 lower corners and the apron.

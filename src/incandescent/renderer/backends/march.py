@@ -20,6 +20,7 @@ import weakref
 
 import numpy as np
 
+from incandescent._jit import array_module, device_name, drjit_module
 from incandescent.renderer.backends.bricks import (
     BRICK,
     BRICK_VOXELS,
@@ -33,7 +34,6 @@ from incandescent.renderer.backends.common import (
     MarchResult,
     upper_samples_per_ray,
 )
-from incandescent.renderer.backends.jit import array_module, device_name, drjit_module
 from incandescent.renderer.rays import lane_order
 from incandescent.volume.sparse import SparseVolume
 
