@@ -24,6 +24,7 @@ from incandescent.colorimetry import (
     xyz_to_uv_prime,
     xyz_to_xy,
 )
+from incandescent.spectra import planckian_white
 
 colour = import_colour()
 
@@ -147,12 +148,13 @@ def test_rgb_space_validation(primaries, white, match):
 # --- chromatic adaptation -----------------------------------------------------------------
 
 
-WHITES = ["D65", "D50", 3000.0, "E"]
+WARM = tuple(planckian_white(3000.0))  # a blackbody's white, as an XYZ triple
+WHITES = ["D65", "D50", WARM, "E"]
 
 
 @pytest.mark.parametrize("method", sorted(CAT_METHODS))
 @pytest.mark.parametrize(
-    ("source", "target"), [("D65", "D50"), ("D50", "D65"), ("D65", 3000.0), (3000.0, "D65")]
+    ("source", "target"), [("D65", "D50"), ("D50", "D65"), ("D65", WARM), (WARM, "D65")]
 )
 def test_adaptation_maps_source_white_to_target_white(method, source, target):
     src, dst = white_point_xyz(source), white_point_xyz(target)
@@ -196,7 +198,7 @@ def test_white_point_is_normalised(white):
 
 
 def test_blackbody_white_is_warm():
-    x, y = xyz_to_xy(white_point_xyz(3000.0))
+    x, y = xyz_to_xy(white_point_xyz(planckian_white(3000.0)))
     assert (x, y) == pytest.approx((0.4369, 0.4041), abs=1e-3)  # CIE 015 Planckian locus
 
 
@@ -204,7 +206,8 @@ def test_blackbody_white_is_warm():
     ("call", "error", "match"),
     [
         (lambda: white_point_xyz("D55"), ValueError, "unknown white point 'D55'.*D65"),
-        (lambda: white_point_xyz(-5.0), ValueError, "white temperature_K must be"),
+        (lambda: white_point_xyz(3000.0), ValueError, "a number, not a white point.*planckian"),
+        (lambda: planckian_white(-5.0), ValueError, "white temperature_K must be"),
         (lambda: white_point_xyz([1.0, 0.0, 1.0]), ValueError, "Y > 0"),
         (
             lambda: chromatic_adaptation_matrix([1, 1, 1], [1, 1, 1], "cat02"),

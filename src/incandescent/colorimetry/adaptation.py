@@ -49,7 +49,7 @@ NAMED_WHITES_XY: dict[str, tuple[float, float]] = {
     "E": (1.0 / 3.0, 1.0 / 3.0),
 }
 
-White = str | float | None
+White = str | None
 
 
 def _white_xyz_array(xyz: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -84,25 +84,15 @@ def chromatic_adaptation_matrix(
     return np.linalg.inv(cone) @ (gain[:, None] * cone)
 
 
-def _blackbody_white(temperature_K: float) -> NDArray[np.float64]:
-    from incandescent.spectra import blackbody_xyz
-
-    temp = _validate.positive_scalar(temperature_K, "white temperature_K")
-    xyz = blackbody_xyz(temp)
-    if not xyz[1] > 0:
-        raise ValueError(f"white temperature_K {temp!r} K has zero luminance; use >= ~400 K")
-    return xyz / xyz[1]
-
-
 def white_point_xyz(white: White | ArrayLike) -> NDArray[np.float64] | None:
-    """XYZ (normalised to Y = 1) of a white given by name, blackbody temperature or XYZ.
+    """XYZ (normalised to Y = 1) of a white given by name or XYZ.
 
     Parameters
     ----------
     white:
-        ``"D65"``, ``"D50"`` or ``"E"`` (case-insensitive); a blackbody temperature in K (a real
-        number, colour from :func:`incandescent.spectra.blackbody_xyz`); an XYZ triple; or
-        ``None``, meaning "no white", i.e. no adaptation.
+        ``"D65"``, ``"D50"`` or ``"E"`` (case-insensitive); an XYZ triple (a blackbody's white is
+        :func:`incandescent.spectra.planckian_white`); or ``None``, meaning "no white", i.e. no
+        adaptation.
 
     Returns
     -------
@@ -114,8 +104,11 @@ def white_point_xyz(white: White | ArrayLike) -> NDArray[np.float64] | None:
         key = white.upper()
         _validate.choice(key, "white point", tuple(NAMED_WHITES_XY))
         return xy_to_xyz(NAMED_WHITES_XY[key])
-    if isinstance(white, (int, float, np.integer, np.floating)):
-        return _blackbody_white(white)  # type: ignore[arg-type]  # bool is rejected there
+    if isinstance(white, (bool, int, float, np.integer, np.floating)):
+        raise ValueError(
+            f"white {white!r} is a number, not a white point: give a name or an XYZ triple "
+            "(a blackbody at T kelvin: incandescent.spectra.planckian_white(T))"
+        )
     xyz = _white_xyz_array(white, "white")
     return xyz / xyz[1]
 

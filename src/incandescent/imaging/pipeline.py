@@ -29,6 +29,7 @@ from incandescent.colorimetry.xyz import as_components
 from incandescent.imaging.encode import BIT_DEPTHS, GAMUT_METHODS, gamut_map, quantize, srgb_oetf
 from incandescent.imaging.exposure import auto_exposure_scale, camera_exposure_scale, ev_scale
 from incandescent.imaging.tonemap import TONEMAPS, tonemap
+from incandescent.spectra.blackbody import planckian_white
 
 WHITE_BALANCE_NAMES: tuple[str, ...] = (*NAMED_WHITES_XY, "hottest")
 _CAMERA_FIELDS = ("iso", "shutter_s", "f_number")
@@ -140,12 +141,18 @@ def _checked_xyz(xyz: ArrayLike) -> NDArray[np.float64]:
     return arr
 
 
-def _source_white(settings: DisplaySettings, hottest_K: float | None) -> str | float | None:
-    if settings.white_balance != "hottest":
-        return settings.white_balance
-    if hottest_K is None:
-        raise ValueError('white_balance="hottest" needs hottest_K (the scene\'s hottest T in K)')
-    return _validate.positive_scalar(hottest_K, "hottest_K")
+def _source_white(settings: DisplaySettings, hottest_K: float | None) -> str | NDArray | None:
+    """The white to adapt from: a name, None, or a blackbody temperature resolved to its XYZ."""
+    white = settings.white_balance
+    if white == "hottest":
+        if hottest_K is None:
+            raise ValueError(
+                'white_balance="hottest" needs hottest_K (the scene\'s hottest T in K)'
+            )
+        white = _validate.positive_scalar(hottest_K, "hottest_K")
+    if white is None or isinstance(white, str):
+        return white
+    return planckian_white(white)
 
 
 def exposure_scale(luminance: NDArray[np.float64], settings: DisplaySettings) -> float:

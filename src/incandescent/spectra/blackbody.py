@@ -59,3 +59,13 @@ def _xyz_flat(temp_K: NDArray, observer: str, constants: str | PlanckConstants) 
     lam_m = cmf.wavelength_nm * NM_TO_M
     radiance_nm = _planck_m(lam_m[None, :], temp_K[:, None], c) * NM_TO_M
     return K_M * cmf.step_nm * (radiance_nm @ cmf.xyz_bar)
+
+
+def planckian_white(temperature_K: float) -> NDArray[np.float64]:
+    """XYZ (normalised to Y = 1) of a blackbody at ``temperature_K``: a white point on the
+    Planckian locus, for :func:`incandescent.colorimetry.adapt`."""
+    temp = _validate.positive_scalar(temperature_K, "white temperature_K")
+    xyz = blackbody_xyz(temp)
+    if not xyz[1] > 0:
+        raise ValueError(f"white temperature_K {temp!r} K has zero luminance; use >= ~400 K")
+    return xyz / xyz[1]
