@@ -446,8 +446,8 @@ def test_a_grid_a_flag_names_but_cannot_be_read_stops_with_the_reason():
     """No silent fallback and no misleading "no such grid": through tinyvdb the Blender cache's
     shadow grid is all active tiles; naming it as the temperature stops with that reason."""
     from incandescent.config import GridNames, VolumeSection
+    from incandescent.config.assemble import volume_from_section
     from incandescent.volume import Remap
-    from incandescent.volume.assemble import volume_from_section
 
     spec = VolumeSection(path=BLENDER, grids=GridNames(temperature="shadow"))
     with pytest.raises(ValueError, match=r"grid 'shadow' is needed but has 65536 active voxels"):

@@ -220,7 +220,7 @@ def test_remap_from_range():
 
 def test_z_up_sources_are_rotated_into_the_y_up_world():
     """(x, y, z) ↦ (x, z, −y): every voxel centre lands where the rotation puts it."""
-    from incandescent.volume.assemble import _z_up_to_y_up
+    from incandescent.config.assemble import _z_up_to_y_up
 
     rng = np.random.default_rng(3)
     grid = rng.random((3, 4, 5))

@@ -198,8 +198,8 @@ def test_few_voxels_in_a_big_box_read_as_leaves_equal_the_dense_read(tmp_path, u
     """The active-value walk (few voxels per leaf of the box) gives the leaves the dense read
     has, turned the same way for z-up, vectors too."""
     from incandescent.config import VolumeSection
+    from incandescent.config.assemble import volume_from_section
     from incandescent.volume import Remap
-    from incandescent.volume.assemble import volume_from_section
 
     path = tmp_path / "few.vdb"
     _sparse_file(path, 96, 40, seed=3)

@@ -681,8 +681,8 @@ def convert(
         _check_vdb_writer(output)
         scene = _scene(source, _overrides(flags))
         check_output(output, overwrite, inputs=[source, scene.volume.path])
+        from incandescent.config.carry import carried
         from incandescent.volume import Volume
-        from incandescent.volume.carry import carried
 
         spec, velocity, left_out = carried(scene.volume, scene.render.line_table, limits)
         volume = api.volume_from_section(spec, scene.remap(), limits, "dense", velocity=velocity)

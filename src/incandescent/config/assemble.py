@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from incandescent.budget import Limits
-from incandescent.config import GridNames, VolumeSection
+from incandescent.config.schema import GridNames, VolumeSection
 from incandescent.io.volumes import DENSE_READ_BYTES_PER_VOXEL, open_grids
 from incandescent.volume.grid import Remap, Volume
 from incandescent.volume.presets import apply_preset, resolve_grid_name
