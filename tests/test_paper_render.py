@@ -80,7 +80,7 @@ def test_paper_mode_cpu_matches_reference(jit_backend, seed):
 
 def test_paper_image_is_display_rgb_in_its_own_field(tmp_path):
     from incandescent.io.images import read_exr
-    from incandescent.io.output import save_image
+    from incandescent.output import save_image
 
     img = render(_slab(3000.0), FACE_ON, RenderSettings(width=3, height=3, brightness="paper"))
     with pytest.raises(ValueError, match="display-referred RGB"):

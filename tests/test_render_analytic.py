@@ -175,7 +175,7 @@ def test_depth_is_distance_to_first_emitting_sample(backend):
 
 def test_depth_matches_between_backends_and_reaches_the_exr(tmp_path, jit_backend):
     from incandescent.io.images import read_exr
-    from incandescent.io.output import save_image
+    from incandescent.output import save_image
 
     temp = _mirror_symmetric_field()
     vol = Volume.from_arrays(temp)

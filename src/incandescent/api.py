@@ -6,7 +6,8 @@ from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
 from incandescent.config.assemble import load_volume, volume_from_section
 from incandescent.imaging import DisplaySettings, to_display
-from incandescent.io.output import save_image, save_volume, write_json
+from incandescent.io.output import save_volume, write_json
+from incandescent.output import save_image
 from incandescent.renderer import HDRImage, RenderSettings, render
 from incandescent.volume import Remap, Volume
 from incandescent.volume.sparse import SparseVolume

@@ -12,7 +12,7 @@ SCIENCE_SUFFIXES = HDF5_SUFFIXES + NETCDF_SUFFIXES
 VOLUME_SUFFIXES = NUMPY_SUFFIXES + VDB_SUFFIXES + SCIENCE_SUFFIXES
 #: Scene files (``config``).
 SCENE_SUFFIXES = (".toml", ".json")
-#: Rendered images (``io.output``): scene-linear EXR, display PNG.
+#: Rendered images (``incandescent.output``): scene-linear EXR, display PNG.
 IMAGE_SUFFIXES = (".exr", ".png")
 #: Videos (``io.video``); any other animation output is a folder of PNG frames.
 VIDEO_SUFFIXES = (".mp4", ".gif")
