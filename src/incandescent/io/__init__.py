@@ -1,1 +1,1 @@
-"""File input/output: EXR and PNG images (atomic writes, metadata in headers)."""
+"""Every file format: volumes (.npy/.npz, VDB, HDF5/NetCDF), EXR/PNG, video, atomic writes."""
