@@ -28,8 +28,9 @@ HEADER = f"""\
 ![what `incandescent demo` makes: a simulated campfire](fire.png)
 
 Every command of `{PROG}` with every argument and option, as
-`{PROG} COMMAND --help` lists them. A default of — means the option is unset: `render` then keeps a scene file's value, and
-otherwise the value in [brackets] in the description applies. What the options mean in depth:
+`{PROG} COMMAND --help` lists them. A default of — means the option is unset: `render` then
+keeps a scene file's value, and otherwise the value in [brackets] in the description applies.
+What the options mean in depth:
 [scene files, volume files and outputs](scene-files.md) (worked examples, presets, remaps,
 motion blur, species and soot), [what is refused](limits.md),
 [rendering on a cluster](cluster.md), [fire simulation](simulation.md),
