@@ -25,8 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from incandescent.io.atomic import OutputError, atomic_write, check_output
+from incandescent.simulation.frames import frame_fields
 from incandescent.simulation.settings import FireSettings, likely_unstable
-from incandescent.simulation.solver import FireSolver, FireState, StepReport, frame_fields
+from incandescent.simulation.solver import FireSolver, FireState, StepReport
 from incandescent.volume import Volume
 
 CHECKPOINT = "checkpoint.npz"

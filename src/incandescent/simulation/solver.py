@@ -23,21 +23,22 @@ One step (``FireSolver.step``), in the order of Fedkiw et al. 2001 §3 and Nguye
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from incandescent.simulation import pressure
-from incandescent.simulation.arrays import ops_for
-from incandescent.simulation.grid import (
-    Layout,
-    cells,
-    faces,
-    flat_index,
-    indices,
-    neighbour,
-    positions,
-    sample,
+from incandescent.simulation.arrays import Array, ops_for
+from incandescent.simulation.fields import Field, StaggeredField
+from incandescent.simulation.grid import Layout, cells, faces, positions, sample
+from incandescent.simulation.operators import (
+    advect,
+    cell_value_at_faces,
+    central,
+    divergence,
+    gradient,
+    vorticity_confinement,
 )
 from incandescent.simulation.settings import FireSettings
 
@@ -52,17 +53,19 @@ PHI_NEAR, FUEL_SIDE_CELLS = 4.0, 2.5
 
 @dataclass
 class FireState:
-    """The fields of one instant: face velocities (cells/s) along x, y, z, and cell-centred
-    φ (cells; < 0 in the fuel), T (K) and soot (unit density); the time and step count."""
+    """The fields of one instant as the backend's flat arrays (what a checkpoint holds; typed
+    views: ``FireSolver.velocity_field``, ``FireSolver.cell_field``): the face velocities
+    (cells/s) along x, y, z, and at the cell centres φ (cells; < 0 in the fuel), T (K), soot
+    (unit density) and the last projection's pressure (cells²/s, the next solve's first guess);
+    the time (s) and the step count."""
 
-    velocity: list
-    phi: object
-    temperature: object
-    soot: object
-    pressure: object
+    velocity: Sequence[Array]
+    phi: Array
+    temperature: Array
+    soot: Array
+    pressure: Array
     time_s: float = 0.0
     steps: int = 0
-    reports: list = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -194,63 +197,41 @@ class FireSolver:
             ops.full(n, 0.0),
         )
 
-    def _velocity_at(self, velocity, p):
-        return [sample(self.ops, velocity[a], self.face[a], p) for a in range(3)]
+    def velocity_field(self, velocity: Sequence[Array]) -> StaggeredField:
+        """The three face components (cells/s) as a typed field of this grid."""
+        return StaggeredField.on(self.shape, velocity)
 
-    def _advect(self, q, layout: Layout, points, velocity, dt, carried_by=None, ambient=None):
-        """q advected by ``velocity`` over dt: semi-Lagrangian, MacCormack-corrected if set;
-        ``carried_by``: where each sample takes its velocity from (default: where it is);
-        ``ambient``: the value of air that flows in through an open side (default: the edge
-        value extended, right for velocities). MacCormack's correction needs the forward trace
-        inside the domain: where it leaves (the gas flowing out of the top or sides), the
-        semi-Lagrangian value stays — else the clamped return sample holds outflowing gas back —
-        and so it does where ambient air flows in."""
-        ops = self.ops
-        v = self._velocity_at(velocity, points if carried_by is None else carried_by)
-        ops.evaluate(*v)  # stored: else each kernel reading it gathers it again (24 gathers)
-        back = [points[a] - v[a] * dt for a in range(3)]
-        entering = None if ambient is None else self._outside(back)  # air flowing in
-        if not self.settings.maccormack:
-            return _where(ops, entering, ambient, sample(ops, q, layout, back))
-        forward, low, high = sample(ops, q, layout, back, with_range=True)
-        forward = _where(ops, entering, ambient, forward)
-        ops.evaluate(forward, low, high)  # one kernel shares their 8 gathers
-        ahead = [points[a] + v[a] * dt for a in range(3)]
-        returned = sample(ops, forward, layout, ahead)
-        corrected = ops.clip(forward + 0.5 * (q - returned), low, high)
-        outside = self._outside(ahead)
-        if outside is not None:
-            if entering is not None:  # the ambient value is exact there: no correction
-                outside = outside | entering
-            corrected = ops.select(outside, forward, corrected)
-        ops.evaluate(corrected)  # now: the stored intermediates are freed field by field
-        return corrected
+    def cell_field(self, values: Array) -> Field:
+        """A cell-centred array of this grid as a typed field."""
+        return Field(values, self.cell)
 
-    def _outside(self, p):
-        """Positions (cell units) beyond an open side of the domain (air, not a wall or floor)."""
-        out = None
-        for axis in range(3):
-            for side in (0, 1):
-                if not self.open_sides[2 * axis + side]:
-                    continue
-                beyond = p[axis] < 0.0 if side == 0 else p[axis] > float(self.shape[axis])
-                out = beyond if out is None else out | beyond
-        return out
+    def _advect(self, q: Field, points, u: StaggeredField, dt, carried_by=None, ambient=None):
+        """``operators.advect`` with this solver's scheme and open sides; the backend array."""
+        return advect(
+            self.ops,
+            q,
+            u,
+            dt,
+            maccormack=self.settings.maccormack,
+            open_sides=self.open_sides,
+            points=points,
+            carried_by=carried_by,
+            ambient=ambient,
+        ).values
 
     # --- one step --------------------------------------------------------------------------
     def step(self, state: FireState, dt: float) -> tuple[FireState, StepReport]:
         ops, s = self.ops, self.settings
-        u, step = state.velocity, ops.scalar(dt)  # a kernel input: a new Δt compiles nothing
-        velocity = [
-            self._advect(u[a], self.face[a], self.face_points[a], u, step) for a in range(3)
-        ]
+        u, step = self.velocity_field(state.velocity), ops.scalar(dt)  # Δt a kernel input
+        velocity = [self._advect(u[a], self.face_points[a], u, step) for a in range(3)]
         temperature, soot = (
-            self._advect(q, self.cell, self.centres, u, step, ambient=air)
+            self._advect(self.cell_field(q), self.centres, u, step, ambient=air)
             for q, air in ((state.temperature, s.t_air_K), (state.soot, 0.0))
         )
-        fuel_side = self._fuel_side(state.phi)
+        phi_field = self.cell_field(state.phi)
+        fuel_side = self._fuel_side(phi_field)
         phi = self._advect(
-            state.phi, self.cell, self.centres, u, step, carried_by=fuel_side, ambient=PHI_LIMIT
+            phi_field, self.centres, u, step, carried_by=fuel_side, ambient=PHI_LIMIT
         )
         ops.evaluate(*velocity, phi, temperature, soot)
         phi, velocity = self._sources(phi, velocity, state)
@@ -258,7 +239,7 @@ class FireSolver:
         phi = ops.clip(phi + speed * step, -PHI_LIMIT, PHI_LIMIT)
         velocity = self._forces(velocity, temperature, soot, step)
         target = (s.density_ratio - 1.0) * speed * self._delta(phi)
-        velocity, p, report = self._project(velocity, target, state.pressure)
+        velocity, p, report = self.project(velocity, target, state.pressure)
         temperature, soot = self._heat(phi, temperature, soot, dt, step)
         ops.evaluate(*velocity, phi, temperature, soot, p)
         new = replace(
@@ -273,14 +254,15 @@ class FireSolver:
         )
         return new, replace(report, dt_s=dt)
 
-    def _fuel_side(self, phi):
+    def _fuel_side(self, phi: Field):
         """Where the front takes its velocity from: FUEL_SIDE_CELLS into the fuel along −∇φ for
         cells near the front (Nguyen eq. 3: the front moves with the *fuel's* velocity plus S·n;
         the smeared velocity across the front would carry it with the expanding products)."""
         ops = self.ops
-        grad = [_central(self, phi, a) for a in range(3)]
+        grad = [central(ops, phi, a).values for a in range(3)]
         length = ops.sqrt(grad[0] ** 2 + grad[1] ** 2 + grad[2] ** 2) + 1e-12
-        near = ops.select(ops.clip(phi, -PHI_NEAR, PHI_NEAR) == phi, FUEL_SIDE_CELLS, 0.0)
+        values = phi.values
+        near = ops.select(ops.clip(values, -PHI_NEAR, PHI_NEAR) == values, FUEL_SIDE_CELLS, 0.0)
         return [self.centres[a] - near * grad[a] / length for a in range(3)]
 
     def _sources(self, phi, velocity, state: FireState):
@@ -321,41 +303,43 @@ class FireSolver:
         cosine = ops.cos(math.pi * ops.clip(phi, -eps, eps) / eps)
         return near * (1.0 + cosine) / (2.0 * eps)
 
-    def _cell_value_at_faces(self, q, axis: int):
-        """The mean of the two cells on either side of each face along ``axis`` (edge cells
-        repeat at the boundary)."""
-        ops = self.ops
-        i, j, k = indices(ops, self.face[axis])
-        ijk_low = [i, j, k]
-        ijk_low[axis] = ops.clip(ijk_low[axis] - 1, 0, self.shape[axis] - 1)
-        ijk_high = [i, j, k]
-        ijk_high[axis] = ops.clip(ijk_high[axis], 0, self.shape[axis] - 1)
-        low = ops.gather(q, flat_index(self.cell, *ijk_low))
-        high = ops.gather(q, flat_index(self.cell, *ijk_high))
-        return 0.5 * (low + high)
-
     def _forces(self, velocity, temperature, soot, dt):
         s = self.settings
         lift = s.buoyancy_m_s2_K * (temperature - s.t_air_K) - s.soot_weight_m_s2 * soot
         velocity = list(velocity)
-        velocity[1] = velocity[1] + dt * (1.0 / self.h) * self._cell_value_at_faces(lift, 1)
+        at_faces = cell_value_at_faces(self.ops, self.cell_field(lift), 1).values
+        velocity[1] = velocity[1] + dt * (1.0 / self.h) * at_faces
         if s.vorticity > 0:
-            confinement = vorticity_confinement(self, velocity)
+            confinement = vorticity_confinement(
+                self.ops, self.velocity_field(velocity), s.vorticity
+            )
             for a in range(3):
-                velocity[a] = velocity[a] + dt * self._cell_value_at_faces(confinement[a], a)
+                velocity[a] = (
+                    velocity[a] + dt * cell_value_at_faces(self.ops, confinement[a], a).values
+                )
         return velocity
 
-    def _project(self, velocity, target, guess):
+    def project(self, velocity: Sequence[Array], target: Array, guess: Array | None = None):
+        """(velocity, pressure, report): the face velocities (cells/s) made to ∇·u = ``target``
+        (1/s per cell) in the fluid, solid faces closed: u ← u − ∇p with −∇²p = D − ∇·u
+        (Fedkiw et al. 2001 eq. 4–5; Nguyen et al. 2002 §4.2 with the front's expansion in D);
+        ``guess``: the pressure to start the solve from (the last step's)."""
         ops = self.ops
         velocity = [velocity[a] * self.face_open[a] for a in range(3)]
-        rhs = (target - divergence(self, velocity)) * self.fluid
+        rhs = (target - self._divergence(velocity)) * self.fluid
         p, solve = pressure.solve(
             ops, self.levels, rhs, self.settings.pressure_tolerance, guess=guess
         )
-        velocity = [(velocity[a] - gradient(self, p, a)) * self.face_open[a] for a in range(3)]
-        residual = (divergence(self, velocity) - target) * self.fluid
+        p_field = self.cell_field(p)
+        velocity = [
+            (velocity[a] - gradient(ops, p_field, a).values) * self.face_open[a] for a in range(3)
+        ]
+        residual = (self._divergence(velocity) - target) * self.fluid
         report = StepReport(0.0, solve.iterations, solve.relative_residual, ops.max_abs(residual))
         return velocity, p, report
+
+    def _divergence(self, velocity: Sequence[Array]) -> Array:
+        return divergence(self.ops, self.velocity_field(velocity)).values
 
     def _heat(self, phi, temperature, soot, dt: float, step):
         """Ignition in the fuel, T_max at the front, radiative cooling, soot; ``step`` is Δt as
@@ -372,101 +356,3 @@ class FireSolver:
         soot = soot + ops.select(sooting, step * s.soot_rate_per_s, 0.0)
         soot = ops.maximum(soot * ops.scalar(math.exp(-s.soot_decay_per_s * dt)), 0.0)
         return temperature, soot
-
-
-def _where(ops, mask, value, otherwise):
-    """``value`` where ``mask`` (None: nowhere), else ``otherwise``."""
-    return otherwise if mask is None else ops.select(mask, value, otherwise)
-
-
-def divergence(solver: FireSolver, velocity):
-    """Σ over axes of (face above − face below), per cell (1/s in cells per second)."""
-    ops = solver.ops
-    i, j, k = indices(ops, solver.cell)
-    total = None
-    for a in range(3):
-        ijk = [i, j, k]
-        below = ops.gather(velocity[a], flat_index(solver.face[a], *ijk))
-        ijk[a] = ijk[a] + 1
-        above = ops.gather(velocity[a], flat_index(solver.face[a], *ijk))
-        total = above - below if total is None else total + above - below
-    return total
-
-
-def gradient(solver: FireSolver, p, axis: int):
-    """(p above − p below) across each face along ``axis``; p = 0 outside the domain (open)."""
-    ops = solver.ops
-    i, j, k = indices(ops, solver.face[axis])
-    n = solver.shape[axis]
-    ijk = [i, j, k]
-    low = [i, j, k]
-    low[axis] = ijk[axis] - 1
-    high = [i, j, k]
-    values = []
-    for cell_ijk in (low, high):
-        inside = (cell_ijk[axis] >= 0) & (cell_ijk[axis] < n)
-        clamped = list(cell_ijk)
-        clamped[axis] = ops.clip(cell_ijk[axis], 0, n - 1)
-        value = ops.gather(p, flat_index(solver.cell, *clamped))
-        values.append(ops.select(inside, value, 0.0))
-    return values[1] - values[0]
-
-
-def vorticity_confinement(solver: FireSolver, velocity):
-    """f = ε (N × ω) per cell, cells/s² (Fedkiw, Stam & Jensen 2001 eq. 11 in cell units)."""
-    ops = solver.ops
-    centre = [_face_mean(solver, velocity[a], a) for a in range(3)]
-    d = [[_central(solver, centre[c], a) for a in range(3)] for c in range(3)]  # d[c][a] = ∂u_c/∂a
-    omega = (d[2][1] - d[1][2], d[0][2] - d[2][0], d[1][0] - d[0][1])
-    magnitude = ops.sqrt(omega[0] ** 2 + omega[1] ** 2 + omega[2] ** 2)
-    grad = [_central(solver, magnitude, a) for a in range(3)]
-    length = ops.sqrt(grad[0] ** 2 + grad[1] ** 2 + grad[2] ** 2) + 1e-12
-    n = [g / length for g in grad]
-    eps = solver.settings.vorticity
-    return (
-        eps * (n[1] * omega[2] - n[2] * omega[1]),
-        eps * (n[2] * omega[0] - n[0] * omega[2]),
-        eps * (n[0] * omega[1] - n[1] * omega[0]),
-    )
-
-
-def _face_mean(solver: FireSolver, face_values, axis: int):
-    """A face component averaged to the cell centres."""
-    ops = solver.ops
-    i, j, k = indices(ops, solver.cell)
-    ijk = [i, j, k]
-    below = ops.gather(face_values, flat_index(solver.face[axis], *ijk))
-    ijk[axis] = ijk[axis] + 1
-    above = ops.gather(face_values, flat_index(solver.face[axis], *ijk))
-    return 0.5 * (below + above)
-
-
-def _central(solver: FireSolver, q, axis: int):
-    """∂q/∂axis at cell centres by central differences (one-sided at the edges), per cell."""
-    ops = solver.ops
-    i, j, k = indices(ops, solver.cell)
-    up, up_in = neighbour(ops, solver.cell, i, j, k, axis, 1)
-    down, down_in = neighbour(ops, solver.cell, i, j, k, axis, -1)
-    span = ops.select(up_in, 1.0, 0.0) + ops.select(down_in, 1.0, 0.0)
-    return (ops.gather(q, up) - ops.gather(q, down)) / ops.maximum(span, 1.0)
-
-
-def frame_fields(solver: FireSolver, state: FireState) -> dict[str, np.ndarray]:
-    """What a frame holds, as NumPy (nx, ny, nz) grids: temperature_K, absorption_per_m (soot),
-    CH and C2 fractions in the reaction zone (the blue core glows by its spectrum), and the
-    cell-centred velocity in m/s (motion blur)."""
-    ops, s, shape = solver.ops, solver.settings, solver.shape
-    phi = ops.numpy(state.phi).reshape(shape)
-    zone = np.where(np.abs(phi) < FRONT_CELLS, 0.5 * (1 + np.cos(np.pi * phi / FRONT_CELLS)), 0.0)
-    velocity = np.stack(
-        [ops.numpy(_face_mean(solver, state.velocity[a], a)).reshape(shape) for a in range(3)],
-        axis=-1,
-    )
-    temperature = ops.numpy(state.temperature).reshape(shape)
-    return {
-        "temperature_K": temperature,
-        "absorption_per_m": ops.numpy(state.soot).reshape(shape) * s.soot_kappa_per_m,
-        "CH": zone * s.ch_fraction,
-        "C2": zone * s.c2_fraction,
-        "velocity_m_s": velocity * solver.h,
-    }

@@ -1,0 +1,193 @@
+"""The fire solver's discrete operators on the MAC grid, as free functions of ``(ops, field…)``.
+
+Each takes the backend's :class:`~incandescent.simulation.arrays.Ops` and typed fields
+(``fields``) and returns a :class:`~incandescent.simulation.fields.Field` on the layout it
+lives on; nothing here knows the solver (as PhiFlow's ``phi.field`` operators and Taichi's
+per-stage kernels keep the numerics apart from the time stepper). Unit spacing: derivatives are
+per cell; a velocity in cells/s gives a divergence in 1/s. On the staggered grid the divergence
+of a cell and the gradient across a face are exact centred differences (Harlow & Welch 1965;
+Fedkiw, Stam & Jensen 2001 §3), so the projection built from them has no odd–even decoupling.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from incandescent.simulation.arrays import Array, Ops
+from incandescent.simulation.fields import Field, StaggeredField
+from incandescent.simulation.grid import (
+    cells,
+    faces,
+    flat_index,
+    indices,
+    neighbour,
+    positions,
+    sample,
+)
+
+
+def divergence(ops: Ops, velocity: StaggeredField) -> Field:
+    """(∇·u)_c = Σ_a (u_a above − u_a below), per cell (1/s for u in cells/s)."""
+    layout = velocity.cells
+    i, j, k = indices(ops, layout)
+    total = None
+    for a, component in enumerate(velocity):
+        ijk = [i, j, k]
+        below = ops.gather(component.values, flat_index(component.layout, *ijk))
+        ijk[a] = ijk[a] + 1
+        above = ops.gather(component.values, flat_index(component.layout, *ijk))
+        total = above - below if total is None else total + above - below
+    return Field(total, layout)
+
+
+def gradient(ops: Ops, p: Field, axis: int) -> Field:
+    """(∇p)_a = p above − p below across each face normal to ``axis``; p = 0 outside the domain
+    (the open sides' Dirichlet value; solid faces are masked by the caller)."""
+    layout = faces(p.shape, axis)
+    low, high = _face_neighbours(ops, layout, axis)
+    n = p.shape[axis]
+    values = []
+    for cell_ijk in (low, high):
+        inside = (cell_ijk[axis] >= 0) & (cell_ijk[axis] < n)
+        clamped = list(cell_ijk)
+        clamped[axis] = ops.clip(cell_ijk[axis], 0, n - 1)
+        value = ops.gather(p.values, flat_index(p.layout, *clamped))
+        values.append(ops.select(inside, value, 0.0))
+    return Field(values[1] - values[0], layout)
+
+
+def _face_neighbours(ops: Ops, layout, axis: int) -> tuple[list[Array], list[Array]]:
+    """The (i, j, k) of the cells below and above each face of ``layout`` (normal to ``axis``),
+    unclamped: the first and last faces have one outside the domain."""
+    i, j, k = indices(ops, layout)
+    low = [i, j, k]
+    low[axis] = low[axis] - 1
+    return low, [i, j, k]
+
+
+def cell_value_at_faces(ops: Ops, q: Field, axis: int) -> Field:
+    """A cell-centred ``q`` on the faces normal to ``axis``: the mean of the two cells either
+    side (the edge cell repeated at the domain's boundary)."""
+    layout = faces(q.shape, axis)
+    low, high = _face_neighbours(ops, layout, axis)
+    n = q.shape[axis]
+    low[axis] = ops.clip(low[axis], 0, n - 1)
+    high[axis] = ops.clip(high[axis], 0, n - 1)
+    below = ops.gather(q.values, flat_index(q.layout, *low))
+    above = ops.gather(q.values, flat_index(q.layout, *high))
+    return Field(0.5 * (below + above), layout)
+
+
+def face_mean(ops: Ops, component: Field, axis: int) -> Field:
+    """A face component (normal to ``axis``) at the cell centres: the mean of a cell's two faces."""
+    shape = list(component.shape)
+    shape[axis] -= 1
+    layout = cells(shape)
+    i, j, k = indices(ops, layout)
+    ijk = [i, j, k]
+    below = ops.gather(component.values, flat_index(component.layout, *ijk))
+    ijk[axis] = ijk[axis] + 1
+    above = ops.gather(component.values, flat_index(component.layout, *ijk))
+    return Field(0.5 * (below + above), layout)
+
+
+def central(ops: Ops, q: Field, axis: int) -> Field:
+    """∂q/∂axis at the cell centres, per cell: (q₊ − q₋)/2 inside, one-sided (q₊ − q) or
+    (q − q₋) at the domain's edges."""
+    i, j, k = indices(ops, q.layout)
+    up, up_in = neighbour(ops, q.layout, i, j, k, axis, 1)
+    down, down_in = neighbour(ops, q.layout, i, j, k, axis, -1)
+    span = ops.select(up_in, 1.0, 0.0) + ops.select(down_in, 1.0, 0.0)
+    return q.like((ops.gather(q.values, up) - ops.gather(q.values, down)) / ops.maximum(span, 1.0))
+
+
+def vorticity(ops: Ops, velocity: StaggeredField) -> tuple[Field, Field, Field]:
+    """ω = ∇ × u at the cell centres (1/s), from the face means and central differences."""
+    centre = [face_mean(ops, component, a) for a, component in enumerate(velocity)]
+    d = [[central(ops, centre[c], a).values for a in range(3)] for c in range(3)]  # ∂u_c/∂a
+    layout = velocity.cells
+    return (
+        Field(d[2][1] - d[1][2], layout),
+        Field(d[0][2] - d[2][0], layout),
+        Field(d[1][0] - d[0][1], layout),
+    )
+
+
+def vorticity_confinement(
+    ops: Ops, velocity: StaggeredField, epsilon: float
+) -> tuple[Field, Field, Field]:
+    """f = ε (N × ω) per cell, cells/s² (Fedkiw, Stam & Jensen 2001 eq. 11 with h = 1 cell):
+    N = ∇|ω| / |∇|ω|| points towards the vortex cores and f spins them up."""
+    omega = [w.values for w in vorticity(ops, velocity)]
+    magnitude = Field(ops.sqrt(omega[0] ** 2 + omega[1] ** 2 + omega[2] ** 2), velocity.cells)
+    grad = [central(ops, magnitude, a).values for a in range(3)]
+    length = ops.sqrt(grad[0] ** 2 + grad[1] ** 2 + grad[2] ** 2) + 1e-12
+    n = [g / length for g in grad]
+    return (
+        magnitude.like(epsilon * (n[1] * omega[2] - n[2] * omega[1])),
+        magnitude.like(epsilon * (n[2] * omega[0] - n[0] * omega[2])),
+        magnitude.like(epsilon * (n[0] * omega[1] - n[1] * omega[0])),
+    )
+
+
+def advect(
+    ops: Ops,
+    q: Field,
+    velocity: StaggeredField,
+    dt: Array | float,
+    *,
+    maccormack: bool = True,
+    open_sides: Sequence[bool] = (False,) * 6,
+    points: Sequence[Array] | None = None,
+    carried_by: Sequence[Array] | None = None,
+    ambient: float | None = None,
+) -> Field:
+    """``q`` carried by ``velocity`` (cells/s) over ``dt`` (s): semi-Lagrangian (Stam 1999:
+    q(x − u(x)Δt), trilinear), MacCormack-corrected if ``maccormack`` (Selle et al. 2008: the
+    forward value plus half the error of tracing it back, clamped to the 8 values it was
+    interpolated from). ``points``: the samples' positions (cells; default: ``q``'s layout's);
+    ``carried_by``: where each takes its velocity from (default: where it is); ``ambient``: the
+    value of air that flows in through an open side (x−, x+, y−, y+, z−, z+ in ``open_sides``;
+    default: the edge value extended, right for velocities). The correction needs the forward
+    trace inside the domain: where it leaves (gas flowing out of an open side), the
+    semi-Lagrangian value stays — else the clamped return sample holds the outflow back — and so
+    it does where ambient air flows in."""
+    points = positions(ops, q.layout) if points is None else points
+    at = points if carried_by is None else carried_by
+    v = [sample(ops, c.values, c.layout, at) for c in velocity]
+    ops.evaluate(*v)  # stored: else each kernel reading it gathers it again (24 gathers)
+    back = [points[a] - v[a] * dt for a in range(3)]
+    entering = None if ambient is None else outside(back, velocity.shape, open_sides)  # air in
+    if not maccormack:
+        return q.like(_where(ops, entering, ambient, sample(ops, q.values, q.layout, back)))
+    forward, low, high = sample(ops, q.values, q.layout, back, with_range=True)
+    forward = _where(ops, entering, ambient, forward)
+    ops.evaluate(forward, low, high)  # one kernel shares their 8 gathers
+    ahead = [points[a] + v[a] * dt for a in range(3)]
+    returned = sample(ops, forward, q.layout, ahead)
+    corrected = ops.clip(forward + 0.5 * (q.values - returned), low, high)
+    leaving = outside(ahead, velocity.shape, open_sides)
+    if leaving is not None:
+        if entering is not None:  # the ambient value is exact there: no correction
+            leaving = leaving | entering
+        corrected = ops.select(leaving, forward, corrected)
+    ops.evaluate(corrected)  # now: the stored intermediates are freed field by field
+    return q.like(corrected)
+
+
+def outside(p: Sequence[Array], shape: Sequence[int], open_sides: Sequence[bool]) -> Array | None:
+    """Positions p (cells) beyond an open side of a ``shape``-cell domain (air, not a wall or the
+    floor); None where no side is open."""
+    out = None
+    for axis in range(3):
+        for side in (0, 1):
+            if not open_sides[2 * axis + side]:
+                continue
+            beyond = p[axis] < 0.0 if side == 0 else p[axis] > float(shape[axis])
+            out = beyond if out is None else out | beyond
+    return out
+
+
+def _where(ops: Ops, mask: Array | None, value: float | None, otherwise: Array) -> Array:
+    """``value`` where ``mask`` (None: nowhere), else ``otherwise``."""
+    return otherwise if mask is None else ops.select(mask, value, otherwise)
