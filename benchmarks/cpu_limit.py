@@ -33,7 +33,7 @@ import numpy as np
 
 from incandescent.api import camera_from
 from incandescent.benchmark import cpu_description, git_commit
-from incandescent.emission import models_for
+from incandescent.emission import Emission
 from incandescent.renderer import RenderSettings, render
 from incandescent.renderer.rays import ray_spec
 from incandescent.scenes import soot_plume
@@ -56,7 +56,7 @@ def write_input(volume, camera, folder: Path, step: float) -> None:
     kappa_per_voxel = volume.absorption_per_m * np.float32(volume.voxel_size_m)
     for name, grid in (("temp", volume.temperature_K), ("kappa", kappa_per_voxel)):
         np.ascontiguousarray(grid.transpose(2, 1, 0), dtype="<f4").tofile(folder / f"{name}.f32")
-    lut = models_for(volume, RenderSettings())[0].tables[0]
+    lut = Emission().models(volume)[0].tables[0]
     temps = np.linspace(0.0, volume.max_temperature_K, LUT_ROWS)
     lut.lookup(temps).astype("<f4").tofile(folder / "lut.f32")
 

@@ -14,7 +14,7 @@ import statistics
 from pathlib import Path
 
 from incandescent import scenes
-from incandescent.renderer import RenderSettings, render
+from incandescent.renderer import EmissionAbsorption, RenderSettings, render
 
 VARIANTS = {"table": 0, "4 bins": 4, "8 bins": 8, "16 bins": 16}
 
@@ -27,14 +27,15 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--rounds", type=int, default=5)
     args = parser.parse_args(argv)
     volume = scenes.plume(args.size)
-    base = RenderSettings(width=args.resolution, height=args.resolution, soot_alpha=1.0)
-    settings = {name: base.replace(spectral_bins=n) for name, n in VARIANTS.items()}
+    base = RenderSettings(width=args.resolution, height=args.resolution)
+    integrators = {name: EmissionAbsorption(spectral_bins=n) for name, n in VARIANTS.items()}
     times: dict[str, list[float]] = {name: [] for name in VARIANTS}
-    for s in settings.values():
-        render(volume, settings=s, backend="cpu")
+    for integrator in integrators.values():
+        render(volume, settings=base, backend="cpu", integrator=integrator)
     for _ in range(args.rounds):
-        for name, s in settings.items():
-            times[name].append(render(volume, settings=s, backend="cpu").metadata["seconds"])
+        for name, integrator in integrators.items():
+            image = render(volume, settings=base, backend="cpu", integrator=integrator)
+            times[name].append(image.metadata["seconds"])
     table = statistics.median(times["table"])
     report = {
         name: {"median_ms": statistics.median(t) * 1e3, "vs_table": statistics.median(t) / table}

@@ -38,6 +38,9 @@ def _digest(image) -> dict[str, str]:
     return out
 
 
+EA, PAPER = inc.EmissionAbsorption, inc.Paper2011
+
+
 def _cases() -> dict[str, Callable[[], tuple]]:
     plume = scenes.plume(24)
     temp = scenes.plume_temperature(24)
@@ -52,20 +55,20 @@ def _cases() -> dict[str, Callable[[], tuple]]:
     s = inc.RenderSettings(**SIZE)
     ortho = inc.Camera(eye=(0, 0.4, 2), target=(0, 0.4, 0), projection="orthographic")
     return {
-        "grey": lambda: (plume, None, s),
-        "grey ss2": lambda: (plume, None, s.replace(supersample=2)),
-        "grey no skip": lambda: (plume, None, s.replace(skip_empty=False)),
-        "grey ortho": lambda: (plume, ortho, s),
-        "cutoff": lambda: (cut, None, s),
-        "soot graded": lambda: (soot, None, s),
-        "emission scale": lambda: (scale, None, s),
-        "spectral 4": lambda: (soot, None, s.replace(spectral_bins=4, soot_alpha=1.39)),
-        "spectral 1": lambda: (plume, None, s.replace(spectral_bins=1)),
-        "species": lambda: (lines, None, s),
-        "species thin": lambda: (thin, None, s),
-        "paper": lambda: (plume, None, s.replace(brightness="paper")),
-        "paper sodium": lambda: (sodium, None, s.replace(brightness="paper")),
-        "demo sparse": lambda: (scenes.sparse_flame(48), None, s),
+        "grey": lambda: (plume, None, s, None),
+        "grey ss2": lambda: (plume, None, s.replace(supersample=2), None),
+        "grey no skip": lambda: (plume, None, s.replace(skip_empty=False), None),
+        "grey ortho": lambda: (plume, ortho, s, None),
+        "cutoff": lambda: (cut, None, s, None),
+        "soot graded": lambda: (soot, None, s, None),
+        "emission scale": lambda: (scale, None, s, None),
+        "spectral 4": lambda: (soot.with_soot_alpha(1.39), None, s, EA(spectral_bins=4)),
+        "spectral 1": lambda: (plume, None, s, EA(spectral_bins=1)),
+        "species": lambda: (lines, None, s, None),
+        "species thin": lambda: (thin, None, s, None),
+        "paper": lambda: (plume, None, s, PAPER()),
+        "paper sodium": lambda: (sodium, None, s, PAPER()),
+        "demo sparse": lambda: (scenes.sparse_flame(48), None, s, None),
     }
 
 
@@ -74,17 +77,17 @@ def _demo_cases() -> dict[str, Callable[[], tuple]]:
 
     s = inc.RenderSettings(**SIZE)
     names = ("plume", "sphere", *COLOURED_FLAME_NAMES, "sooty", "clean")
-    return {f"demo {n}": (lambda n=n: (SCENES[n].build(24), None, s)) for n in names}
+    return {f"demo {n}": (lambda n=n: (SCENES[n].build(24), None, s, None)) for n in names}
 
 
 def hashes(backends=("cpu", "reference")) -> dict[str, dict[str, str]]:
     out = {}
     for name, make in {**_cases(), **_demo_cases()}.items():
-        volume, camera, settings = make()
+        volume, camera, settings, integrator = make()
         for backend in backends:
             if backend == "reference" and settings.supersample > 1:
                 continue
-            image = inc.render(volume, camera, settings, backend)
+            image = inc.render(volume, camera, settings, backend, integrator=integrator)
             out[f"{name} / {backend}"] = _digest(image)
     return out
 

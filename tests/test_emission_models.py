@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from incandescent.camera import Camera
-from incandescent.emission import BlackbodyGrey, EmissionModel, models_for
-from incandescent.renderer import RenderSettings, render
+from incandescent.emission import BlackbodyGrey, Emission, EmissionModel
+from incandescent.renderer import EmissionAbsorption, Paper2011, RenderSettings, render
 from incandescent.scenes import plume_temperature
 from incandescent.spectra import blackbody_xyz
 from incandescent.spectra.lut import T_MAX_K, build_emission_lut
@@ -63,19 +63,20 @@ def test_species_in_one_grey_bin_equal_the_table_mode(jit_backend):
     volume = _lines_volume()
     s = RenderSettings(width=24, height=20)
     grey = render(volume, None, s, jit_backend)
+    flat = volume.with_soot_alpha(0.0)
     for bins in (1, 6):
-        banded = render(volume, None, s.replace(spectral_bins=bins, soot_alpha=0.0), jit_backend)
+        banded = render(flat, None, s, jit_backend, integrator=EmissionAbsorption(bins))
         np.testing.assert_allclose(banded.xyz, grey.xyz, rtol=1e-5, atol=1e-5 * grey.xyz.max())
 
 
 def test_species_in_bins_converge_to_the_1nm_reference(jit_backend):
     """Soot α = 1.39 with lines: the bins' error against the 1 nm march falls as N grows."""
-    volume = _lines_volume()
-    s = RenderSettings(width=24, height=20, soot_alpha=1.39)
-    exact = render(volume, None, s.replace(spectral_bins=4), "reference").xyz  # the 1 nm limit
+    volume = _lines_volume().with_soot_alpha(1.39)
+    s = RenderSettings(width=24, height=20)
+    exact = render(volume, None, s, "reference", integrator=EmissionAbsorption(4)).xyz  # 1 nm
     errors = []
     for bins in (2, 8, 32):
-        image = render(volume, None, s.replace(spectral_bins=bins), jit_backend)
+        image = render(volume, None, s, jit_backend, integrator=EmissionAbsorption(bins))
         errors.append(np.abs(image.xyz - exact).max() / exact.max())
     assert errors[0] > errors[1] > errors[2] and errors[2] < 2e-3, errors
 
@@ -85,15 +86,16 @@ def test_reference_lines_per_nm_equal_the_table_mode():
     volume = _lines_volume(12)
     s = RenderSettings(width=12, height=10)
     grey = render(volume, None, s, "reference")
-    per_nm = render(volume, None, s.replace(spectral_bins=3, soot_alpha=0.0), "reference")
+    flat = volume.with_soot_alpha(0.0)
+    per_nm = render(flat, None, s, "reference", integrator=EmissionAbsorption(3))
     np.testing.assert_allclose(per_nm.xyz, grey.xyz, rtol=1e-9, atol=1e-9 * grey.xyz.max())
 
 
-def test_models_for_picks_and_composes():
+def test_the_integrators_pick_and_compose_their_models():
     volume = _lines_volume(8)
-    assert [m.name for m in models_for(volume, RenderSettings())] == ["blackbody", "lines"]
-    banded = models_for(volume, RenderSettings(spectral_bins=5))
+    assert [m.name for m in Emission().models(volume)] == ["blackbody", "lines"]
+    assert [m.name for m in EmissionAbsorption().models(volume)] == ["blackbody", "lines"]
+    banded = EmissionAbsorption(spectral_bins=5).models(volume)
     assert [m.name for m in banded] == ["blackbody-bins", "lines"]
     assert all(len(m.tables) == 5 * (1 if m.name != "lines" else 2) for m in banded)
-    paper = models_for(volume, RenderSettings(brightness="paper"))
-    assert [m.kind for m in paper] == ["display"]
+    assert Paper2011().models(volume) == ()  # the paper's colour is its own, not models

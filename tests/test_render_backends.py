@@ -194,12 +194,12 @@ def test_corners_clamp_to_the_edge_voxel_as_the_padded_grid_did():
 
 def _march_inputs_for(vol):
     from incandescent.camera import default_camera
-    from incandescent.emission import models_for
     from incandescent.renderer.api import _march_inputs
+    from incandescent.renderer.integrators import EmissionAbsorption
 
-    settings = RenderSettings(width=8, height=8)
-    models = models_for(vol, settings)
-    return _march_inputs(vol, default_camera(vol.bounds_m), settings, "cpu", models)
+    settings, integrator = RenderSettings(width=8, height=8), EmissionAbsorption()
+    camera, models = default_camera(vol.bounds_m), integrator.models(vol)
+    return _march_inputs(vol, camera, settings, "cpu", integrator, models)
 
 
 def test_empty_radius_is_the_chebyshev_distance_to_the_nearest_occupied_cell():

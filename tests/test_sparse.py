@@ -7,7 +7,7 @@ import pytest
 
 from incandescent import scenes
 from incandescent.camera import Camera
-from incandescent.renderer import RenderSettings, render
+from incandescent.renderer import Paper2011, RenderSettings, render
 from incandescent.renderer.backends.bricks import plan
 from incandescent.volume import Volume, build_macrocells
 from incandescent.volume.sparse import SparseVolume, leaf_macrocells
@@ -108,9 +108,8 @@ def test_auto_layout_chooses_by_occupancy_and_what_sparse_carries():
         render(lines, None, s.replace(layout="sparse"))
     with pytest.raises(ValueError, match="macrocells are its 8-voxel leaves"):
         render(scenes.plume(24), None, s.replace(layout="sparse", macrocell_voxels=4))
-    paper = s.replace(brightness="paper", layout="sparse")
-    with pytest.raises(ValueError, match="paper2011 model is not emission"):
-        render(scenes.plume(24), None, paper)
+    with pytest.raises(ValueError, match="the paper2011 integrator is not emission"):
+        render(scenes.plume(24), None, s.replace(layout="sparse"), integrator=Paper2011())
 
 
 @pytest.mark.parametrize(

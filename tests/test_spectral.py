@@ -8,7 +8,7 @@ from _backends import ALL_BACKENDS
 
 from incandescent.camera import Camera
 from incandescent.colorimetry import xyz_to_xy
-from incandescent.renderer import RenderSettings, render
+from incandescent.renderer import EmissionAbsorption, Paper2011, RenderSettings, render
 from incandescent.spectra import blackbody_xyz
 from incandescent.spectra.bins import bin_xyz, make_bins
 from incandescent.volume import Volume
@@ -37,18 +37,19 @@ def test_grey_kappa_spectral_mode_equals_table_mode(backend):
     vol = _random_volume(1)
     s = RenderSettings(width=9, height=7)
     lut = render(vol, CAMERA, s, backend=backend).xyz
-    grey = render(vol, CAMERA, s.replace(spectral_bins=8, soot_alpha=0.0), backend=backend).xyz
+    flat = vol.with_soot_alpha(0.0)
+    grey = render(flat, CAMERA, s, backend=backend, integrator=EmissionAbsorption(8)).xyz
     np.testing.assert_allclose(grey, lut, rtol=1e-3, atol=1e-6 * lut.max())
 
 
 def test_n_bin_result_converges_to_the_1nm_reference(jit_backend):
     """Measured: max error / max 0.040, 0.018, 0.0075 for 2, 4, 8 bins (0.0021 for 16)."""
-    vol = _random_volume(2)
-    s = RenderSettings(width=13, height=9, soot_alpha=1.39)
-    ref = render(vol, CAMERA, s.replace(spectral_bins=1), backend="reference").xyz
+    vol = _random_volume(2).with_soot_alpha(1.39)
+    s = RenderSettings(width=13, height=9)
+    ref = render(vol, CAMERA, s, "reference", integrator=EmissionAbsorption(1)).xyz
     errors = []
     for n in (2, 4, 8):
-        fast = render(vol, CAMERA, s.replace(spectral_bins=n), backend=jit_backend).xyz
+        fast = render(vol, CAMERA, s, jit_backend, integrator=EmissionAbsorption(n)).xyz
         errors.append(np.abs(fast - ref).max() / ref.max())
     assert errors[-1] < 1e-2
     assert errors[2] < errors[1] < errors[0]
@@ -63,22 +64,24 @@ def test_soot_makes_transmitted_light_redder(jit_backend):
     kappa[..., 20:] = 4.0  # front: cold soot (camera at +z)
     vol = Volume.from_arrays(temp, absorption=kappa, voxel_size_m=0.025)
     cam = Camera(eye=(0, 0, 3.0), target=(0, 0, 0), projection="orthographic", ortho_height_m=0.02)
-    s = RenderSettings(width=2, height=2, spectral_bins=8)
-    grey = render(vol, cam, s.replace(soot_alpha=0.0), backend=jit_backend).xyz[0, 0]
-    soot = render(vol, cam, s.replace(soot_alpha=1.39), backend=jit_backend).xyz[0, 0]
+    s, bins = RenderSettings(width=2, height=2), EmissionAbsorption(spectral_bins=8)
+    grey = render(vol.with_soot_alpha(0.0), cam, s, jit_backend, integrator=bins).xyz[0, 0]
+    soot = render(vol.with_soot_alpha(1.39), cam, s, jit_backend, integrator=bins).xyz[0, 0]
     assert xyz_to_xy(soot)[0] > xyz_to_xy(grey)[0] + 0.01  # redder (larger x)
 
 
 def test_spectral_jit_backend_is_within_the_bin_error_of_the_reference(jit_backend):
-    vol = _random_volume(3)
-    s = RenderSettings(width=11, height=9, soot_alpha=1.0)
-    ref = render(vol, CAMERA, s.replace(spectral_bins=1), backend="reference").xyz
-    fast = render(vol, CAMERA, s.replace(spectral_bins=8), backend=jit_backend).xyz
+    vol = _random_volume(3).with_soot_alpha(1.0)
+    s = RenderSettings(width=11, height=9)
+    ref = render(vol, CAMERA, s, "reference", integrator=EmissionAbsorption(1)).xyz
+    fast = render(vol, CAMERA, s, jit_backend, integrator=EmissionAbsorption(8)).xyz
     assert np.abs(fast - ref).max() < 1e-2 * ref.max()
 
 
 def test_spectral_settings_are_validated():
     with pytest.raises(ValueError, match="spectral_bins must be in 0..64"):
-        RenderSettings(spectral_bins=100)
-    with pytest.raises(ValueError, match="physical' only"):
-        RenderSettings(spectral_bins=4, brightness="paper")
+        EmissionAbsorption(spectral_bins=100)
+    with pytest.raises(ValueError, match=r"soot_alpha must be in \[0, 4\]"):
+        _random_volume(1).with_soot_alpha(5.0)
+    with pytest.raises(TypeError):  # bins belong to emission–absorption, not to the paper's sums
+        Paper2011(spectral_bins=4)  # type: ignore[call-arg]

@@ -196,7 +196,7 @@ def test_rays_are_column_major_for_kernels():
         ({"step_voxels": 0.0}, "step_voxels"),
         ({"supersample": 2.5}, "supersample"),
         ({"min_transmittance": 1.5}, "min_transmittance"),
-        ({"brightness": "sunny"}, "unknown brightness law 'sunny'"),
+        ({"layout": "sunny"}, "unknown layout 'sunny'"),
     ],
 )
 def test_settings_reject_bad_values(kwargs, match):

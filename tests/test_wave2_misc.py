@@ -225,8 +225,8 @@ def test_info_json_of_a_vdb_with_nan_and_inf_is_strict_json(tmp_path):
         (".toml", '[volume]\npath = "box.npz"\n[output]\npath = "a\\u0000b.png"\n', "output.path"),
         (".toml", '[volume]\npath = "box.npz"\n[output]\nstats = "s\\u0000.json"\n',
          "output.stats"),
-        (".toml", '[volume]\npath = "box.npz"\n[render]\nline_table = "t\\u0000.csv"\n',
-         "render.line_table"),
+        (".toml", '[volume]\npath = "box.npz"\n[emission]\nline_table = "t\\u0000.csv"\n',
+         "emission.line_table"),
     ],
 )  # fmt: skip
 def test_a_nul_byte_in_a_scene_files_path_is_one_line_naming_the_key(

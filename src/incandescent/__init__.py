@@ -2,13 +2,25 @@
 
 from incandescent._version import __version__  # noqa: E402
 from incandescent.camera import Camera, default_camera  # noqa: E402
-from incandescent.renderer import HDRImage, RenderSettings, render  # noqa: E402
+from incandescent.emission import Emission  # noqa: E402
+from incandescent.renderer import (  # noqa: E402
+    EmissionAbsorption,
+    HDRImage,
+    Integrator,
+    Paper2011,
+    RenderSettings,
+    render,
+)
 from incandescent.spectra import blackbody_xyz, planck_radiance  # noqa: E402
 from incandescent.volume import Remap, Volume  # noqa: E402
 
 __all__ = [
     "Camera",
+    "Emission",
+    "EmissionAbsorption",
     "HDRImage",
+    "Integrator",
+    "Paper2011",
     "Remap",
     "RenderSettings",
     "Volume",

@@ -32,7 +32,7 @@ from incandescent.io.formats import VIDEO_SUFFIXES
 from incandescent.io.images import write_png
 from incandescent.io.output import write_json
 from incandescent.io.video import _check_fps, _check_frame, read_frames, write_gif, write_mp4
-from incandescent.renderer import RenderSettings, render
+from incandescent.renderer import Integrator, RenderSettings, render
 from incandescent.volume import Volume
 from incandescent.volume.sparse import LEAF
 
@@ -43,17 +43,18 @@ def fixed_display(
     settings: RenderSettings,
     backend: str | None = "auto",
     base: DisplaySettings | None = None,
+    integrator: Integrator | None = None,
 ) -> DisplaySettings:
     """``base`` with auto exposure replaced by the fixed exposure that auto exposure picks for
-    ``key_volume`` (rendered at a quarter of the size); unchanged for paper mode or when ``base``
-    already has auto exposure off."""
+    ``key_volume`` (rendered at a quarter of the size); unchanged for a display-referred
+    integrator (no exposure) or when ``base`` already has auto exposure off."""
     base = base or DisplaySettings()
-    if settings.brightness == "paper" or not base.auto_exposure:
+    if (integrator is not None and integrator.display_referred) or not base.auto_exposure:
         return base
     preview = settings.replace(
         width=max(8, settings.width // 4), height=max(8, settings.height // 4)
     )
-    image = render(key_volume, camera, preview, backend=backend)
+    image = render(key_volume, camera, preview, backend=backend, integrator=integrator)
     ev = math.log2(auto_exposure_scale(image.luminance)) + base.exposure_ev
     return DisplaySettings(
         space=base.space,
@@ -80,9 +81,11 @@ def render_video(
     frame_input: Callable[[int], str] | None = None,
     limits: Limits | None = None,
     distribute: Distribute | None = None,
+    integrator: Integrator | None = None,
 ) -> AnimationSummary:
     """Render frames 0 … n_frames − 1 of ``volume_at`` to ``output`` (.mp4, .gif or a folder),
-    seen by ``camera`` — one camera, or a path ``frame ↦ Camera`` (``incandescent.camera.paths``).
+    seen by ``camera`` — one camera, or a path ``frame ↦ Camera`` (``incandescent.camera.paths``)
+    — with ``integrator`` (default: emission–absorption).
 
     ``frame_input(i)`` describes frame i's input without reading it (a file's path, size and
     modification time; a scene's parameters). It goes, with the package version, the render and
@@ -97,14 +100,15 @@ def render_video(
     describe = frame_input or (lambda _: "")
 
     def key(index: int) -> str:
-        return frame_key(describe(index), camera_at(index), settings, display)
+        return frame_key(describe(index), camera_at(index), settings, display, integrator)
 
     def frame(index: int) -> Any:  # the volume travels with its camera to render_frame
         return volume_at(index), camera_at(index)
 
     def render_frame(item: Any) -> np.ndarray:
         volume, cam = item
-        return display_pixels(render(volume, cam, settings, backend, limits), display)
+        image = render(volume, cam, settings, backend, limits, integrator=integrator)
+        return display_pixels(image, display)
 
     return animate(
         frame,
@@ -120,16 +124,23 @@ def render_video(
 
 
 def frame_key(
-    frame_input: str, camera: Camera, settings: RenderSettings, display: DisplaySettings
+    frame_input: str,
+    camera: Camera,
+    settings: RenderSettings,
+    display: DisplaySettings,
+    integrator: Integrator | None = None,
 ) -> str:
     """Digests of everything that makes a frame's pixels: ``JOB:INPUT``, the job (version,
-    camera, render and display settings) and the frame's input (its file's identity). A frame
-    whose input alone changed is rendered again; one from another job is refused."""
+    camera, render and display settings, the integrator with its emission models) and the
+    frame's input (its file's identity). A frame whose input alone changed is rendered again;
+    one from another job is refused."""
     import hashlib
 
     from incandescent._version import __version__
+    from incandescent.renderer import EmissionAbsorption
 
-    job = "\n".join((__version__, repr(camera), repr(settings), repr(display)))
+    transport = repr(integrator or EmissionAbsorption())
+    job = "\n".join((__version__, repr(camera), repr(settings), repr(display), transport))
 
     def digest(text: str) -> str:
         return hashlib.sha256(text.encode()).hexdigest()[:32]
@@ -181,17 +192,20 @@ def render_plate_video(
     backend: str | None = "auto",
     overwrite: bool = False,
     progress: bool = True,
+    integrator: Integrator | None = None,
 ) -> AnimationSummary:
     """Render the plate sequence to ``output`` (.mp4, .gif, or a folder of PNG frames), resuming
     from frames already in the frame folder. One exposure for all frames: auto exposure of the
-    frame where the gas holds the most heat."""
+    frame where the gas holds the most heat (none for the paper's display-referred sums)."""
     from incandescent.scenes.paper import PlateScene
 
     scene = scene or PlateScene()
     camera = plate_camera(scene)
     frames = list(scene.frames())
     hottest = max(range(len(frames)), key=lambda i: scene.excess_heat(frames[i]))
-    display = fixed_display(scene.volume(frames[hottest]), camera, settings, backend)
+    display = fixed_display(
+        scene.volume(frames[hottest]), camera, settings, backend, integrator=integrator
+    )
     return render_video(
         lambda i: scene.volume(frames[i]),
         scene.n_frames,
@@ -203,6 +217,7 @@ def render_plate_video(
         overwrite=overwrite,
         progress=progress,
         frame_input=lambda i: f"{scene!r} frame {i}",
+        integrator=integrator,
     )
 
 

@@ -7,6 +7,7 @@ import json
 import logging
 import signal
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -54,6 +55,11 @@ def _fail(message: str) -> typer.Exit:
 def _say(message: str) -> None:
     """Print ``message`` verbatim (paths may hold [brackets]) without wrapping."""
     console.print(message, highlight=False, markup=False, soft_wrap=True)
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning (e.g. a scene key of an earlier release) as one line, without source lines."""
+    _say(f"warning: {message}")
 
 
 @contextlib.contextmanager
@@ -197,6 +203,7 @@ def main(
     ),
 ) -> None:
     logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, format="%(message)s")
+    warnings.showwarning = _show_warning
     if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
         signal.signal(signal.SIGTERM, _terminate)
 
@@ -245,7 +252,13 @@ def render(
     brightness: str = typer.Option(
         None, help="physical (absolute Planck, emission–absorption) | paper (the 2011 method)."
     ),
-    sodium: float = typer.Option(None, help="Paper mode: constant sodium fraction 0..1."),
+    integrator: str = typer.Option(
+        None, help="emission_absorption | paper2011 (the [integrator] type) [emission_absorption]."
+    ),
+    spectral_bins: int = typer.Option(
+        None, help="emission_absorption: N spectral bins for soot's κ_λ (0: grey) [0]."
+    ),
+    sodium: float = typer.Option(None, help="Constant sodium fraction 0..1 (species Na)."),
     paper_exponent: float = typer.Option(None, help="Paper mode: brightness ∝ T^exponent [1.5]."),
     species: str = OPT_SPECIES,
     line_table: Path = OPT_LINE_TABLE,
@@ -273,18 +286,17 @@ def render(
             raise ValueError("no output: give -o OUT.exr|.png or [output] path in the scene file")
         _check_outputs(out.path, out.stats, out.overwrite, _inputs(source, scene))
         backend = _start_backends(scene.volume.path, out.backend)
-        from incandescent.volume import Volume  # noqa: F811 - at run time, not only for types
-
-        settings = scene.render_settings()
-        layout = "dense" if sodium is not None else settings.layout
+        settings, transport = scene.render_settings(), scene.render_integrator()
         blur_fps = settings.fps if settings.shutter is not None else None
-        volume = api.volume_from_section(scene.volume, scene.remap(), limits, layout, blur_fps)
-        if sodium is not None and isinstance(volume, Volume):  # the paper's term: dense only
-            volume = volume.with_sodium(sodium)
+        volume = api.volume_from_section(
+            scene.volume, scene.remap(), limits, settings.layout, blur_fps
+        )
         start = time.perf_counter()
-        camera, settings = scene.camera_for(volume), scene.render_settings()
+        camera = scene.camera_for(volume)
         with _render_progress() as progress:
-            image = api.render(volume, camera, settings, backend, limits, progress)
+            image = api.render(
+                volume, camera, settings, backend, limits, progress, integrator=transport
+            )
         with all_or_nothing():  # the image and its stats, or neither
             written = [api.save_image(image, out.path, scene.display_settings(), out.overwrite)]
             if out.stats is not None:
@@ -344,6 +356,27 @@ def _pair(text: str | None, flag: str, expected: str) -> list[float] | None:
         raise _fail(f"{flag} must be {expected}; got {text!r}") from None
 
 
+def _integrator_name(name: str | None, brightness: str | None) -> str | None:
+    """``--integrator NAME``, or ``--brightness physical|paper`` read as one (None: neither)."""
+    from incandescent.config.legacy import BRIGHTNESS_INTEGRATORS
+
+    if brightness is not None and brightness not in BRIGHTNESS_INTEGRATORS:
+        raise _fail(f"--brightness must be physical or paper; got {brightness!r}")
+    by_brightness = None if brightness is None else BRIGHTNESS_INTEGRATORS[brightness]
+    if name is not None and by_brightness is not None and name != by_brightness:
+        raise _fail(f"--integrator {name} and --brightness {brightness} disagree; give one")
+    return name or by_brightness
+
+
+def _with_sodium(species: dict | None, sodium: float | None) -> dict | None:
+    """``--species`` with ``--sodium F`` as species Na."""
+    if sodium is None:
+        return species
+    if species and "Na" in species:
+        raise _fail("--sodium is the fraction of species Na, also given in --species; give one")
+    return {**(species or {}), "Na": sodium}
+
+
 def _overrides(f: dict) -> dict:
     """Nested scene keys for the flags that were given (None = not given)."""
     low_high = None
@@ -362,7 +395,7 @@ def _overrides(f: dict) -> dict:
             "voxel_size_m": f.get("voxel_size"),
             "preset": f.get("preset"),
             "up_axis": f.get("up_axis"),
-            "species": _species(f.get("species")),
+            "species": _with_sodium(_species(f.get("species")), f.get("sodium")),
             "axes": f.get("axes"),
             "grids": {"temperature": f.get("temperature_grid"), "velocity": f.get("velocity_grid")},
             "velocity_units": f.get("velocity_units"),
@@ -386,14 +419,19 @@ def _overrides(f: dict) -> dict:
             "supersample": f.get("supersample"),
             "seed": f.get("seed"),
             "space": f.get("space"),
-            "brightness": f.get("brightness"),
-            "paper_exponent": f.get("paper_exponent"),
-            "line_table": None if f.get("line_table") is None else str(f.get("line_table")),
             "layout": f.get("layout"),
             "shutter": _pair(
                 f.get("shutter"), "--shutter", "OPEN:CLOSE in frames (e.g. -0.25:0.25)"
             ),
             "fps": f.get("fps"),
+        },
+        "integrator": {
+            "type": _integrator_name(f.get("integrator"), f.get("brightness")),
+            "spectral_bins": f.get("spectral_bins"),
+            "exponent": f.get("paper_exponent"),
+        },
+        "emission": {
+            "line_table": None if f.get("line_table") is None else str(f.get("line_table")),
         },
         "display": {
             "exposure_ev": f.get("exposure"),
@@ -429,7 +467,7 @@ def _check_outputs(
 def _inputs(source: Path, scene) -> list[Path]:
     """The files a render reads: the command's argument (a volume or a scene file), the volume
     the scene names, and its line table."""
-    table = scene.render.line_table
+    table = scene.emission.line_table
     return [source, scene.volume.path, *([] if table is None else [Path(table)])]
 
 
@@ -516,12 +554,11 @@ def demo(
     with _guarded():
         limits = _limits(max_memory, max_samples)
         settings = api.RenderSettings(
-            width=width or (320 if video else 512),
-            height=height or (240 if video else 512),
-            brightness=brightness,
+            width=width or (320 if video else 512), height=height or (240 if video else 512)
         )
+        integrator = _brightness_integrator(brightness)
         if video:
-            _demo_plate(output, settings, frames, backend, overwrite)
+            _demo_plate(output, settings, integrator, frames, backend, overwrite)
             return
         _check_outputs(output, None, overwrite)
         _check_demo_size(size, limits)
@@ -530,12 +567,19 @@ def demo(
         scene = SCENES[name]
         display, camera = scene.display, scene.camera and scene.camera()
         with console.status(f"rendering {settings.width}×{settings.height}…"):
-            image = api.render(volume, camera, settings, backend, limits)
+            image = api.render(volume, camera, settings, backend, limits, integrator=integrator)
         written = [api.save_image(image, output, display, overwrite=overwrite)]
     _summary(image, written)
 
 
-def _demo_plate(output: Path, settings, frames: int, backend: str, overwrite: bool) -> None:
+def _brightness_integrator(brightness: str):
+    """The integrator ``--brightness physical|paper`` names."""
+    from incandescent.renderer.integrators import integrator_from_dict
+
+    return integrator_from_dict({"type": _integrator_name(None, brightness)})
+
+
+def _demo_plate(output: Path, settings, integrator, frames: int, backend: str, overwrite: bool):
     from incandescent.animation import render_plate_video
     from incandescent.scenes.paper import PlateScene
 
@@ -543,7 +587,9 @@ def _demo_plate(output: Path, settings, frames: int, backend: str, overwrite: bo
         raise ValueError(f"--frames must be >= 1; got {frames}")
     scene = PlateScene(n_frames=frames)
     start = time.perf_counter()
-    render_plate_video(output, settings, scene, backend=backend, overwrite=overwrite)
+    render_plate_video(
+        output, settings, scene, backend=backend, overwrite=overwrite, integrator=integrator
+    )
     _say(f"plate: {frames} frames in {time.perf_counter() - start:.1f} s")
 
 
@@ -684,7 +730,7 @@ def convert(
         from incandescent.config.carry import carried
         from incandescent.volume import Volume
 
-        spec, velocity, left_out = carried(scene.volume, scene.render.line_table, limits)
+        spec, velocity, left_out = carried(scene.volume, scene.emission.line_table, limits)
         volume = api.volume_from_section(spec, scene.remap(), limits, "dense", velocity=velocity)
         assert isinstance(volume, Volume)  # a dense read
         written = save_volume(volume, output, overwrite=overwrite)
@@ -808,7 +854,8 @@ def animate(
         camera = api.camera_from(
             first, _vector(eye, "eye"), _vector(target, "target"), fov, frame_content=False
         )
-        settings = scene.render_settings()  # width, height, step, brightness, line table: flags
+        settings = scene.render_settings()  # width, height, step: flags
+        integrator = scene.render_integrator()  # brightness, line table: flags
         path = paths_module.orbit(camera, len(paths), orbit) if orbit else camera
         display = fixed_display(
             volume_at(key_frame(paths)),
@@ -816,6 +863,7 @@ def animate(
             settings,
             backend,
             api.DisplaySettings(exposure_ev=exposure),
+            integrator,
         )
         start = time.perf_counter()
         camera_at = path if callable(path) else (lambda _: path)
@@ -824,7 +872,8 @@ def animate(
             spec = scene.volume.model_copy(update={"path": paths[index]})
             return cluster.FrameTask(index, spec, scene.remap(), settings.layout, blur_fps,
                                      camera_at(index), settings, display, backend,
-                                     frame_path(frame_dir, index), threads)  # fmt: skip
+                                     frame_path(frame_dir, index), threads,
+                                     integrator)  # fmt: skip
 
         with cluster.connect(workers, scheduler) as (client, threads):
             distribute = cluster.distributor(client, lambda i: task(i, threads))
@@ -842,6 +891,7 @@ def animate(
                     frame_input=frame_input,
                     limits=limits,
                     distribute=distribute,
+                    integrator=integrator,
                 )
             except FramesFailed as failed:
                 for index, reason in sorted(failed.failures.items()):

@@ -40,7 +40,7 @@ if TYPE_CHECKING:
     from incandescent.camera import Camera
     from incandescent.config import VolumeSection
     from incandescent.imaging import DisplaySettings
-    from incandescent.renderer import RenderSettings
+    from incandescent.renderer import Integrator, RenderSettings
     from incandescent.volume import Remap
 
 #: Times a frame is tried again when its worker dies (SIGKILL, out of memory).
@@ -72,6 +72,7 @@ class FrameTask:
     backend: str
     png: Path
     threads: int | None = None  # Dr.Jit threads on the worker (None: its default)
+    integrator: Integrator | None = None  # how light is transported (None: the default)
 
 
 def render_task(task: FrameTask) -> tuple[int, tuple[int, ...]]:
@@ -87,7 +88,7 @@ def render_task(task: FrameTask) -> tuple[int, tuple[int, ...]]:
     volume = api.volume_from_section(
         task.volume, task.remap, layout=task.layout, blur_fps=task.blur_fps
     )
-    image = api.render(volume, task.camera, task.settings, task.backend)
+    image = api.render(volume, task.camera, task.settings, task.backend, integrator=task.integrator)
     pixels = display_pixels(image, task.display)
     write_png(task.png, pixels, overwrite=True, metadata={"frame": str(task.index)})
     return task.index, tuple(pixels.shape)

@@ -167,6 +167,7 @@ def _assembled(spec, source, roles, grids, by_role, remap, voxel, origin, box_si
         box_side_m=box_side_m,
         velocity_m_s=by_role.get("velocity"),
         copy=False,  # a reader's fresh arrays: handed over, not copied again
+        soot_alpha=spec.soot_alpha,
     )
 
 
@@ -218,6 +219,7 @@ def _sparse_volume(spec, source, roles, remap: Remap, blur_fps: float | None) ->
         volume.absorption_source,
         volume.temperature_source,
         None if velocity is None else velocity.reshape(count, LEAF, LEAF, LEAF, 3),
+        spec.soot_alpha,
     )
 
 

@@ -30,8 +30,10 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
+from incandescent.config.legacy import LegacyKeyError, upgrade
 from incandescent.config.schema import Scene
 from incandescent.io.formats import SCENE_SUFFIXES
+from incandescent.renderer.integrators import EmissionAbsorption
 
 __all__ = ["SUFFIXES", "SceneError", "load_scene", "merge_overrides", "scene_from_dict"]
 
@@ -57,10 +59,10 @@ def load_scene(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     """
     path = Path(path)
     _check_no_nul(str(path), "scene file path", repr(str(path)))
-    data = _read(path)
+    data = _upgraded(_read(path), str(path))
     _check_path_keys(data, str(path))
     _resolve_paths(data, path.parent, str(path))
-    return _validate(merge_overrides(data, overrides), str(path), overrides)
+    return _validate(_merge(data, overrides), str(path), overrides)
 
 
 def scene_from_dict(
@@ -73,11 +75,31 @@ def scene_from_dict(
     against ``base_dir`` (default: left relative to the working directory)."""
     if not isinstance(data, Mapping):
         raise SceneError(f"{source}: a scene is a table of sections; got {type(data).__name__}")
-    copy = _plain(data)
+    copy = _upgraded(_plain(data), source)
     _check_path_keys(merge_overrides(copy, overrides), source)
     if base_dir is not None:
         _resolve_paths(copy, Path(base_dir), source)
-    return _validate(merge_overrides(copy, overrides), source, overrides)
+    return _validate(_merge(copy, overrides), source, overrides)
+
+
+def _upgraded(data: dict, source: str) -> dict:
+    """``data`` with the keys of earlier releases in today's sections (``config.legacy``)."""
+    try:
+        return upgrade(data, source)
+    except LegacyKeyError as error:
+        raise SceneError(str(error)) from None
+
+
+def _merge(data: dict, overrides: Mapping[str, Any] | None) -> dict:
+    """:func:`merge_overrides`, except that an override naming another integrator ``type``
+    replaces the scene's ``[integrator]`` (whose parameters belong to the other one)."""
+    given = _lookup(overrides or {}, ["integrator", "type"])
+    table = data.get("integrator")
+    if given in (_MISSING, None) or not isinstance(table, dict):
+        return merge_overrides(data, overrides)
+    if table.get("type", EmissionAbsorption.name) != given:
+        data = {k: v for k, v in data.items() if k != "integrator"}
+    return merge_overrides(data, overrides)
 
 
 def merge_overrides(data: Mapping[str, Any], overrides: Mapping[str, Any] | None) -> dict:
@@ -154,8 +176,8 @@ def _check_no_nul(text: str, where: str, shown: str) -> None:
 
 
 def _check_path_keys(data: Mapping[str, Any], source: str) -> None:
-    """Refuse a path key (``PATH_KEYS``, ``render.line_table``) holding a NUL byte."""
-    for section, key in (*PATH_KEYS, ("render", "line_table")):
+    """Refuse a path key (``PATH_KEYS``, ``emission.line_table``) holding a NUL byte."""
+    for section, key in (*PATH_KEYS, ("emission", "line_table")):
         value = _lookup(data, [section, key])
         if isinstance(value, (str, Path)):
             _check_no_nul(str(value), f"{source}: {section}.{key}", repr(str(value)))

@@ -14,8 +14,13 @@ Sections and keys (defaults in brackets)::
     [volume.grids]      temperature, absorption, emission_scale, sodium_fraction, density, flame
                         (role = grid name in the file; absent = found by alias)
     [volume.temperature] offset, scale [0, 1] | range = [LOW, HIGH] (K); cutoff_K [0]
+                        soot_alpha [1] (κ_λ = κ·(550 nm/λ)^α in spectral bins)
     [camera]            eye, target, up, fov_deg, projection, ortho_height_m (absent = default view)
-    [render]            the RenderSettings fields
+    [render]            the RenderSettings fields (film and sampling)
+    [integrator]        type ["emission_absorption"] and that integrator's parameters
+                        (emission_absorption: spectral_bins [0]; paper2011: exponent [1.5],
+                        gain, min_K [800]) — ``renderer.integrators``
+    [emission]          observer ["cie1931_2"], constants ["codata2018"], line_table
     [display]           the DisplaySettings fields; space [= render.space]
     [output]            path, overwrite [false], stats (JSON path), backend ["auto"]
 """
@@ -32,16 +37,20 @@ from pydantic_core import PydanticCustomError
 
 from incandescent.camera.camera import Camera, default_camera
 from incandescent.colorimetry.rgb_spaces import rgb_space
+from incandescent.emission import Emission
 from incandescent.imaging.pipeline import DisplaySettings
 from incandescent.renderer.backends import BACKENDS
+from incandescent.renderer.integrators import EmissionAbsorption, Integrator, integrator_from_dict
 from incandescent.renderer.settings import RenderSettings
-from incandescent.volume.grid import Remap, Volume
+from incandescent.volume.grid import Remap, Volume, check_soot_alpha
 from incandescent.volume.presets import ROLES, preset_parameters
 
 __all__ = [
     "CameraSection",
     "DisplaySection",
+    "EmissionSection",
     "GridNames",
+    "IntegratorSection",
     "OutputSection",
     "RenderSection",
     "Scene",
@@ -148,6 +157,8 @@ class VolumeSection(_Section):
     #: unit, proportional to the domain's resolution, so a bake needs its factor).
     velocity_units: Literal["m/s", "voxels/frame"] = "m/s"
     velocity_scale: float = Field(default=1.0, ge=0.0, allow_inf_nan=False)
+    #: The absorption's spectral law κ_λ = κ·(550 nm/λ)^α (``Volume.soot_alpha``).
+    soot_alpha: float = 1.0
 
     @model_validator(mode="after")
     def _check(self) -> VolumeSection:
@@ -164,6 +175,7 @@ class VolumeSection(_Section):
             raise _fail(
                 "give absorption (a constant, 1/m) or grids.absorption (a grid name), not both"
             )
+        _checked(lambda: check_soot_alpha(self.soot_alpha))
         one_voxel = np.ones((1, 1, 1))
         _checked(
             lambda: Volume.from_arrays(
@@ -219,15 +231,6 @@ class RenderSection(_Section):
     skip_empty: bool = RenderSettings.skip_empty
     macrocell_voxels: int = RenderSettings.macrocell_voxels
     space: str = RenderSettings.space
-    observer: str = RenderSettings.observer
-    constants: str = RenderSettings.constants
-    brightness: str = RenderSettings.brightness
-    paper_exponent: float = RenderSettings.paper_exponent
-    paper_gain: float = RenderSettings.paper_gain
-    paper_min_K: float = RenderSettings.paper_min_K
-    line_table: str | None = None
-    spectral_bins: int = RenderSettings.spectral_bins
-    soot_alpha: float = RenderSettings.soot_alpha
     layout: str = RenderSettings.layout
     shutter: tuple[float, float] | None = None
     fps: float = RenderSettings.fps
@@ -240,6 +243,44 @@ class RenderSection(_Section):
 
     def settings(self) -> RenderSettings:
         return RenderSettings(**self.model_dump())
+
+
+class EmissionSection(_Section):
+    """The fields of :class:`~incandescent.emission.Emission`: how the gas emits."""
+
+    observer: str = Emission.observer
+    constants: str = Emission.constants
+    line_table: str | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> EmissionSection:
+        _checked(self.emission)
+        return self
+
+    def emission(self) -> Emission:
+        return Emission(**self.model_dump())
+
+
+class IntegratorSection(BaseModel):
+    """``type``: a name in :data:`~incandescent.renderer.integrators.INTEGRATORS`; every other
+    key is a parameter of that integrator (as Mitsuba 3's plugin dicts), checked by building it."""
+
+    model_config = ConfigDict(extra="allow", frozen=True, strict=True, allow_inf_nan=False)
+
+    type: str = EmissionAbsorption.name
+
+    @model_validator(mode="after")
+    def _check(self) -> IntegratorSection:
+        _checked(lambda: self.integrator(Emission()))
+        return self
+
+    def parameters(self) -> dict[str, object]:
+        """The integrator's parameters given (every key but ``type``)."""
+        return dict(self.model_extra or {})
+
+    def integrator(self, emission: Emission) -> Integrator:
+        """The integrator; one that takes emission models gets ``emission``."""
+        return integrator_from_dict({"type": self.type, **self.parameters()}, emission=emission)
 
 
 class DisplaySection(_Section):
@@ -293,11 +334,17 @@ class Scene(_Section):
     volume: VolumeSection
     camera: CameraSection = Field(default_factory=CameraSection)
     render: RenderSection = Field(default_factory=RenderSection)
+    integrator: IntegratorSection = Field(default_factory=IntegratorSection)
+    emission: EmissionSection = Field(default_factory=EmissionSection)
     display: DisplaySection = Field(default_factory=DisplaySection)
     output: OutputSection = Field(default_factory=OutputSection)
 
     def render_settings(self) -> RenderSettings:
         return self.render.settings()
+
+    def render_integrator(self) -> Integrator:
+        """The ``[integrator]`` with the ``[emission]`` models."""
+        return self.integrator.integrator(self.emission.emission())
 
     def display_settings(self) -> DisplaySettings:
         """Display settings; the RGB space is ``display.space`` or else ``render.space``."""

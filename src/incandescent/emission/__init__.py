@@ -1,42 +1,63 @@
 """Emission models: what emits light in the gas, one module each (``emission.base`` has the
-interface). :func:`models_for` picks the models a render uses from its volume and settings."""
+interface). :class:`Emission` — the observer, the Planck constants and the line table — builds
+the models a render uses from its volume and bands (:meth:`Emission.models`)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+from incandescent.constants import PLANCK_CONSTANT_SETS, planck_constants
 from incandescent.emission.base import KINDS, Bands, EmissionModel, check_kind
 from incandescent.emission.blackbody import BlackbodyBins, BlackbodyGrey
 from incandescent.emission.lines import SpeciesLines
-from incandescent.emission.paper2011 import Paper2011
+from incandescent.spectra.cmf import OBSERVERS, cmfs
 
 __all__ = [
     "KINDS",
+    "OBSERVERS",
+    "PLANCK_CONSTANTS",
     "Bands",
     "BlackbodyBins",
     "BlackbodyGrey",
+    "Emission",
     "EmissionModel",
-    "Paper2011",
     "SpeciesLines",
-    "models_for",
+    "transport_bands",
 ]
 
+#: Planck constant sets by name (``incandescent.constants``).
+PLANCK_CONSTANTS = tuple(PLANCK_CONSTANT_SETS)
 
-def models_for(volume, settings) -> tuple[EmissionModel, ...]:
-    """The models a render uses: the paper's alone (``brightness="paper"``), else blackbody —
-    grey, or in ``spectral_bins`` bins — plus the lines of the volume's species."""
-    if settings.brightness == "paper":
-        return (Paper2011(settings, volume.sodium_fraction is not None),)
-    if settings.spectral_bins:
-        blackbody: BlackbodyGrey = BlackbodyBins(
-            settings.spectral_bins, settings.soot_alpha, settings.observer, settings.constants
-        )
-    else:
-        blackbody = BlackbodyGrey(settings.observer, settings.constants)
-    if not volume.species:
-        return (blackbody,)
-    lines = SpeciesLines(
-        tuple(volume.species), blackbody.bands, settings.line_table, settings.observer
-    )
-    return blackbody, lines
+
+@dataclass(frozen=True)
+class Emission:
+    """How the gas emits: blackbody through ``observer`` with the ``constants`` set, plus the lines
+    of the volume's species from ``line_table`` (a .csv/.toml file; None: the shipped table,
+    ``incandescent.spectra.lines``). The scene file's ``[emission]`` section."""
+
+    observer: str = "cie1931_2"
+    constants: str = "codata2018"
+    line_table: str | None = None
+
+    def __post_init__(self) -> None:
+        cmfs(self.observer)  # unknown names list the choices
+        planck_constants(self.constants)
+        if self.line_table is not None and not isinstance(self.line_table, str):
+            object.__setattr__(self, "line_table", str(self.line_table))
+
+    def models(self, volume, bins: int = 0) -> tuple[EmissionModel, ...]:
+        """Blackbody — grey, or in ``bins`` spectral bins with the volume's soot law
+        κ_λ = κ·(550 nm/λ)^α (``volume.soot_alpha``) — plus the lines of the volume's species."""
+        blackbody: BlackbodyGrey
+        if bins:
+            alpha = float(getattr(volume, "soot_alpha", 1.0))
+            blackbody = BlackbodyBins(bins, alpha, self.observer, self.constants)
+        else:
+            blackbody = BlackbodyGrey(self.observer, self.constants)
+        if not volume.species:
+            return (blackbody,)
+        lines = SpeciesLines(tuple(volume.species), blackbody.bands, self.line_table, self.observer)
+        return blackbody, lines
 
 
 def transport_bands(models: tuple[EmissionModel, ...]) -> Bands:

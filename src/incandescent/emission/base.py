@@ -1,7 +1,8 @@
 """The emission-model interface: what a source of light in the gas answers, on the host, in the
 Dr.Jit kernel and in the float64 reference (``docs/design/DESIGN.md`` §3).
 
-A render uses a tuple of models (:func:`incandescent.emission.models_for`). Each has a *kind*:
+A render's emission–absorption integrator (``renderer.integrators``) uses a tuple of models
+(:meth:`incandescent.emission.Emission.models`). Each has a *kind*:
 
 ``"source"``
     Thermal emission of the absorbing gas, κ·S(T) with S the source function per unit
@@ -34,7 +35,7 @@ from numpy.typing import NDArray
 from incandescent.spectra.bins import SpectralBins
 from incandescent.spectra.lut import EmissionLUT
 
-KINDS = ("source", "coefficient", "display")
+KINDS = ("source", "coefficient")
 
 
 @dataclass(frozen=True)

@@ -44,8 +44,6 @@ def volume_grids(volume) -> dict[str, np.ndarray]:
     grids = {"temperature": volume.temperature_K, "absorption": volume.absorption_per_m}
     if volume.emission_scale is not None:
         grids["emission_scale"] = volume.emission_scale
-    if volume.sodium_fraction is not None:
-        grids["sodium_fraction"] = volume.sodium_fraction
     grids.update(volume.species)
     if volume.velocity_m_s is not None:
         grids["velocity"] = volume.velocity_m_s

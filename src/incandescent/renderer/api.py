@@ -10,12 +10,12 @@ import numpy as np
 from incandescent._version import __version__
 from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
-from incandescent.emission import EmissionModel, models_for
-from incandescent.emission.paper2011 import PAPER_CAP
+from incandescent.emission import EmissionModel
 from incandescent.renderer.backends import MarchInputs, resolve_backend, run_march
 from incandescent.renderer.backends.bricks import brick_bytes
 from incandescent.renderer.backends.common import upper_samples_per_ray
 from incandescent.renderer.film import HDRImage, resolve_pixels
+from incandescent.renderer.integrators import EmissionAbsorption, Integrator
 from incandescent.renderer.layout import blur_rings, layout_volume
 from incandescent.renderer.rays import image_lanes, lane_order, prepare_rays, ray_spec
 from incandescent.renderer.settings import RenderSettings
@@ -41,11 +41,12 @@ def _check_ceiling(volume: Volume | SparseVolume) -> None:
 BYTES_PER_RAY = {"reference": 1024, "cpu": 256, "cuda": 256}
 
 
-def _check_types(volume, camera, settings) -> None:
+def _check_types(volume, camera, settings, integrator) -> None:
     for value, kind, name in (
         (volume, (Volume, SparseVolume), "volume"),
         (camera, (Camera, type(None)), "camera"),
         (settings, (RenderSettings, type(None)), "settings"),
+        (integrator, (Integrator, type(None)), "integrator"),
     ):
         if not isinstance(value, kind):
             want = (
@@ -70,7 +71,7 @@ def render_estimate(
         grid_bytes = brick_bytes(volume, packed=True)
     else:
         voxels = float(np.prod(volume.shape))
-        grids = 1 + (volume.emission_scale is not None) + (volume.sodium_fraction is not None)
+        grids = 1 + (volume.emission_scale is not None)
         grid_bytes = voxels * (8 + 4 * (grids - 1 + len(volume.species)))
     samples = rays * upper_samples_per_ray(volume.shape, settings.step_voxels)
     return grid_bytes + rays * BYTES_PER_RAY[backend], samples
@@ -94,6 +95,7 @@ def render(
     limits: Limits | None = None,
     progress: Callable[[float], None] | None = None,
     models: tuple[EmissionModel, ...] | None = None,
+    integrator: Integrator | None = None,
 ) -> HDRImage:
     """Render ``volume`` seen by ``camera`` (default: a three-quarter view framing the gas).
 
@@ -101,34 +103,39 @@ def render(
     The render is estimated first and refused (:class:`~incandescent.budget.BudgetError`) when
     it exceeds ``limits`` (default: the memory available now and 1e11 samples). A Ctrl-C during
     the march is honoured within about a second (the fast backends march in chunks of rays,
-    calling ``progress(fraction of rays done)`` after each). ``models``: the emission models
-    (``incandescent.emission``; default :func:`~incandescent.emission.models_for` of the
-    volume and settings).
+    calling ``progress(fraction of rays done)`` after each). ``integrator``: how light is
+    transported (``incandescent.renderer.integrators``; default: grey emission–absorption).
+    ``models``: the emission models (``incandescent.emission``; default: the integrator's for
+    the volume).
     """
-    _check_types(volume, camera, settings)
+    _check_types(volume, camera, settings, integrator)
     settings, limits = settings or RenderSettings(), limits or Limits()
+    integrator = integrator or EmissionAbsorption()
     camera = camera or default_camera(volume.content_bounds_m)
     name = resolve_backend(backend)
     _check_ceiling(volume)
     _check_blur(volume, settings, name)
-    models = models_for(volume, settings) if models is None else tuple(models)
-    volume = layout_volume(volume, settings, models, name, limits)
+    if models is None:
+        models = integrator.models(volume)
+    models = integrator.check_models(models)
+    volume = layout_volume(volume, settings, integrator, models, name, limits)
     check_budget(volume, settings, name, limits)
-    inputs = _march_inputs(volume, camera, settings, name, models)
+    inputs = _march_inputs(volume, camera, settings, name, integrator, models)
     result = run_march(inputs, name, progress)
     return _assemble(inputs, result, name, camera)
 
 
-def _march_inputs(volume, camera, settings, backend: str, models) -> MarchInputs:
+def _march_inputs(volume, camera, settings, backend: str, integrator, models) -> MarchInputs:
     cells = None
     if settings.skip_empty and backend != "reference" and isinstance(volume, SparseVolume):
         cells = volume.macrocells(settings.macrocell_voxels)  # κ only (``layout``)
     elif settings.skip_empty and backend != "reference":
-        cells = volume.macrocells(settings.macrocell_voxels, *_occupancy(models))
+        cells = volume.macrocells(settings.macrocell_voxels, *integrator.occupancy(models))
     if cells is not None:
         cells = dilated(cells, blur_rings(volume, settings))
     rays = prepare_rays(camera, volume, settings) if backend == "reference" else None
-    return MarchInputs(rays, volume, models, cells, settings, ray_spec(camera, volume, settings))
+    spec = ray_spec(camera, volume, settings)
+    return MarchInputs(integrator, rays, volume, models, cells, settings, spec)
 
 
 def _check_blur(volume, settings: RenderSettings, backend: str) -> None:
@@ -143,27 +150,6 @@ def _check_blur(volume, settings: RenderSettings, backend: str) -> None:
         )
     if backend == "reference":
         raise ValueError("motion blur runs on the cpu and cuda backends, not the reference")
-
-
-def _occupancy(models) -> tuple[str, Callable[[Volume], np.ndarray] | None]:
-    """(cache key, grid) of where the models may emit: κ > 0 widened by each model's own
-    occupancy, or the display model's alone (the paper ignores absorption); ("absorption", None)
-    where that is κ > 0 alone (the key the layout choice shares)."""
-    display = next((m for m in models if m.kind == "display"), None)
-    if display is None and all(type(m).occupancy is EmissionModel.occupancy for m in models):
-        return "absorption", None
-    key = repr(tuple(model.occupancy_key for model in models))
-
-    def grid(volume: Volume) -> np.ndarray:
-        if display is not None:
-            return display.occupancy(volume)
-        out = volume.absorption_per_m
-        for model in models:
-            extra = model.occupancy(volume)
-            out = out if extra is None else np.maximum(out, extra)
-        return out
-
-    return key, grid
 
 
 def _scatter_rays(values: np.ndarray, index, inputs: MarchInputs, fill: float, reduce=np.mean):
@@ -183,11 +169,7 @@ def _scatter_rays(values: np.ndarray, index, inputs: MarchInputs, fill: float, r
 
 def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRImage:
     values = _scatter_rays(result.xyz, result.ray_index, inputs, 0.0)
-    xyz, display_rgb = None, None
-    if inputs.display is not None:  # display-referred RGB: the paper's sums, capped
-        display_rgb = np.minimum(values, PAPER_CAP).astype(np.float32)
-    else:
-        xyz = values.astype(np.float32)
+    xyz, display_rgb = inputs.integrator.film(values)
     index = result.ray_index
     tr = _scatter_rays(result.transmittance, index, inputs, 1.0).astype(np.float32)
     depth = _scatter_rays(result.depth_m, index, inputs, np.inf, np.min).astype(np.float32)
@@ -200,9 +182,7 @@ def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRI
         "absorption": inputs.volume.absorption_source,
         "temperature": inputs.volume.temperature_source,
         "max_temperature_K": inputs.volume.max_temperature_K,
-        "brightness": s.brightness,
-        "observer": s.observer,
-        "planck_constants": s.constants,
+        **inputs.integrator.metadata(),
         "step_voxels": s.step_voxels,
         "supersample": s.supersample,
         "seed": s.seed,

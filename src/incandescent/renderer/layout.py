@@ -10,8 +10,8 @@
 a dense volume whose occupied leaves are under :data:`AUTO_SPARSE_FRACTION` of the box, or whose
 dense layout would not fit in memory while the sparse one does; dense otherwise and whenever the
 sparse layout cannot carry the render (it marches blackbody emission from T and κ, and the
-velocity for motion blur: no species lines, no paper mode, no emission-scale grid, 8-voxel
-macrocells).
+velocity for motion blur: emission–absorption with models that read T and κ alone — no species
+lines, no emission-scale grid —, 8-voxel macrocells).
 """
 
 from __future__ import annotations
@@ -19,24 +19,22 @@ from __future__ import annotations
 import numpy as np
 
 from incandescent.budget import Limits
-from incandescent.emission import EmissionModel
 from incandescent.renderer.settings import RenderSettings
 from incandescent.volume import Volume
 from incandescent.volume.macrocells import dilate_cells
 from incandescent.volume.sparse import AUTO_SPARSE_FRACTION, LEAF, SparseVolume
 
 
-def sparse_problem(volume, settings: RenderSettings, models, backend: str) -> str | None:
-    """Why the sparse layout cannot carry this render, or None."""
+def sparse_problem(
+    volume, settings: RenderSettings, integrator, models, backend: str
+) -> str | None:
+    """Why the sparse layout cannot carry this render (``integrator`` with ``models``), or None."""
     if backend == "reference":
         return "the float64 reference marches dense grids"
-    for model in models:
-        if model.kind == "display":
-            return f"the {model.name} model is not emission–absorption"
-        plain = type(model).occupancy is EmissionModel.occupancy
-        if not plain or type(model).grids is not EmissionModel.grids:
-            return f"the {model.name} model reads grids besides T and κ"
-    if volume.emission_scale is not None or volume.sodium_fraction is not None or volume.species:
+    problem = integrator.sparse_problem(models)
+    if problem:
+        return problem
+    if volume.emission_scale is not None or volume.species:
         return "the volume has grids besides T and κ"
     if settings.skip_empty and settings.macrocell_voxels != LEAF:
         return f"its macrocells are its {LEAF}-voxel leaves (macrocell_voxels={LEAF})"
@@ -46,12 +44,13 @@ def sparse_problem(volume, settings: RenderSettings, models, backend: str) -> st
 def layout_volume(
     volume: Volume | SparseVolume,
     settings: RenderSettings,
-    models: tuple[EmissionModel, ...],
+    integrator,
+    models: tuple,
     backend: str,
     limits: Limits,
 ) -> Volume | SparseVolume:
     """The volume in the layout the march uses: a :class:`SparseVolume` marches sparse."""
-    problem = sparse_problem(volume, settings, models, backend)
+    problem = sparse_problem(volume, settings, integrator, models, backend)
     if settings.layout == "sparse" and problem:
         raise ValueError(f"layout 'sparse' cannot render this: {problem}; use layout 'dense'")
     if problem or settings.layout == "dense":

@@ -1,4 +1,6 @@
-"""Render settings: a frozen, validated value (change with :meth:`RenderSettings.replace`)."""
+"""Render settings: the film and the sampling, a frozen, validated value (change with
+:meth:`RenderSettings.replace`). How light is transported is the integrator's
+(``renderer.integrators``), how the gas emits the emission models' (``incandescent.emission``)."""
 
 from __future__ import annotations
 
@@ -8,16 +10,9 @@ import numpy as np
 
 from incandescent import _validate
 
-BRIGHTNESS_LAWS = ("physical", "paper")
 #: Device layouts of the grids: "dense" padded grids, "sparse" 8³ bricks of the occupied leaves
 #: (``renderer.backends.layout``), "auto" chooses by occupancy and memory.
 LAYOUTS = ("auto", "dense", "sparse")
-#: Default paper-mode gain per voxel of path: 32 voxels of 3000 K gas sum to 255 (our choice; the
-#: paper does not give its scale).
-PAPER_GAIN = 255.0 / (32.0 * 3000.0**1.5)
-#: Default paper-mode threshold: samples below it do not contribute (the paper mentions a threshold
-#: without its value; 800 K is about the Draper point, where a visible glow begins).
-PAPER_MIN_K = 800.0
 
 
 def _positive_int(value: int, name: str, maximum: int = 1 << 15) -> None:
@@ -29,7 +24,7 @@ def _positive_int(value: int, name: str, maximum: int = 1 << 15) -> None:
 
 @dataclass(frozen=True)
 class RenderSettings:
-    """How to render.
+    """How to render: the image, the step lattice and the sampling.
 
     Attributes
     ----------
@@ -41,18 +36,7 @@ class RenderSettings:
     min_transmittance: early termination once the transmittance falls below this.
     skip_empty: empty-space skipping with a macrocell grid (does not change the image).
     macrocell_voxels: macrocell side in voxels.
-    space: RGB space of the output image (see incandescent.colorimetry).
-    observer: CIE observer, "cie1931_2" or "cie1964_10".
-    constants: Planck constant set ("codata2018", "cie", "paper").
-    brightness: "physical" (absolute Planck radiance, emission–absorption) or "paper" (the 2011
-        method: normalised chromaticity × T^paper_exponent summed along the ray, capped at 255).
-    paper_exponent, paper_gain, paper_min_K: paper mode's brightness exponent (1.5), gain per
-        voxel of path, and temperature below which a sample does not contribute.
-    spectral_bins: 0 for the grey-κ table mode; N > 0 marches N spectral bins with
-        κ_λ = κ·(550 nm / λ)^soot_alpha (κ is the volume's absorption at 550 nm).
-    soot_alpha: the soot exponent α (1: Rayleigh limit; 1.39: Hottel & Broughton 1932).
-    line_table: a species line table file (.csv/.toml) for the volume's species fractions;
-        None: the shipped table (``incandescent.spectra.lines``).
+    space: RGB space of the image's linear RGB (see incandescent.colorimetry).
     layout: "auto", "dense" or "sparse": how the grids are laid out for the march (images are
         equal; sparse keeps only occupied 8³ bricks, see ``renderer.layout``).
     shutter: (open, close) in frames relative to the frame's instant (e.g. (-0.25, 0.25): a
@@ -72,21 +56,12 @@ class RenderSettings:
     skip_empty: bool = True
     macrocell_voxels: int = 8
     space: str = "srgb"
-    observer: str = "cie1931_2"
-    constants: str = "codata2018"
-    brightness: str = "physical"
-    paper_exponent: float = 1.5
-    paper_gain: float = PAPER_GAIN
-    paper_min_K: float = PAPER_MIN_K
-    line_table: str | None = None
-    spectral_bins: int = 0
-    soot_alpha: float = 1.0
     layout: str = "auto"
     shutter: tuple[float, float] | None = None
     fps: float = 24.0
 
     def __post_init__(self) -> None:
-        for name in ("width", "height", "supersample", "macrocell_voxels", "seed", "spectral_bins"):
+        for name in ("width", "height", "supersample", "macrocell_voxels", "seed"):
             value = getattr(self, name)
             if isinstance(value, np.integer):  # NumPy integers are integers: store plain ints
                 object.__setattr__(self, name, int(value))
@@ -101,7 +76,6 @@ class RenderSettings:
             raise ValueError(f"min_transmittance must be in [0, 1); got {self.min_transmittance!r}")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"seed must be a non-negative integer; got {self.seed!r}")
-        _validate.choice(self.brightness, "brightness law", BRIGHTNESS_LAWS)
         _validate.choice(self.layout, "layout", LAYOUTS)
         _check_shutter(self.shutter)
         if self.shutter is not None:  # a list from a scene file: store a tuple of floats
@@ -109,21 +83,6 @@ class RenderSettings:
         fps = _validate.positive_scalar(self.fps, "fps")
         if fps > 10_000:
             raise ValueError(f"fps must be <= 10000 frames per second; got {self.fps!r}")
-        _validate.positive_scalar(self.paper_gain, "paper_gain")
-        _validate.positive_scalar(self.paper_min_K, "paper_min_K")
-        if isinstance(self.spectral_bins, bool) or not isinstance(self.spectral_bins, int):
-            raise ValueError(f"spectral_bins must be an integer; got {self.spectral_bins!r}")
-        if not 0 <= self.spectral_bins <= 64:
-            raise ValueError(f"spectral_bins must be in 0..64; got {self.spectral_bins!r}")
-        if not np.isfinite(float(self.soot_alpha)) or not 0 <= self.soot_alpha <= 4:
-            raise ValueError(f"soot_alpha must be in [0, 4]; got {self.soot_alpha!r}")
-        if self.spectral_bins and self.brightness == "paper":
-            raise ValueError(
-                "spectral_bins apply to brightness 'physical' only (the paper ignores absorption)"
-            )
-        exponent = float(self.paper_exponent)
-        if not np.isfinite(exponent) or not 0 <= exponent <= 8:
-            raise ValueError(f"paper_exponent must be in [0, 8]; got {self.paper_exponent!r}")
 
     def replace(self, **changes) -> RenderSettings:
         return replace(self, **changes)

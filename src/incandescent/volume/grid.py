@@ -131,11 +131,14 @@ class Volume(Placed):
     temperature_K: (nx, ny, nz) float32, kelvin; 0 in vacuum voxels.
     absorption_per_m: (nx, ny, nz) float32 κ in 1/m (already 0 where T < cutoff).
     emission_scale: (nx, ny, nz) float32 or None — a non-physical multiplier of emission only.
-    sodium_fraction: (nx, ny, nz) float32 in [0, 1] or None — the paper's per-voxel sodium term.
     velocity_m_s: (nx, ny, nz, 3) float32 gas velocity in m/s (x, y, z) or None — what motion
         blur advects κ and T along (``RenderSettings.shutter``).
     species: name → (nx, ny, nz) float32 fraction in [0, 1] of an emitting species (Na, Li, …)
-        whose lines (``incandescent.spectra.lines``) add to the emission in physical mode.
+        whose lines (``incandescent.spectra.lines``) add to the emission; ``Na`` is also the
+        2011 paper's sodium term (grid name ``sodium_fraction`` in files).
+    soot_alpha: the spectral law of the absorption, κ_λ = κ·(550 nm/λ)^α (1: the Rayleigh
+        limit; 1.39: Hottel & Broughton 1932), used where transport runs in spectral bins; κ is
+        the absorption at 550 nm.
     origin_m: world position of the corner of voxel (0, 0, 0), m.
     voxel_size_m: side of a voxel, m.
     absorption_source: how κ was given ("grid", "constant 2.0 1/m", or the default's description).
@@ -147,11 +150,14 @@ class Volume(Placed):
     origin_m: tuple[float, float, float]
     voxel_size_m: float
     absorption_source: str = field(default="grid")
-    sodium_fraction: NDArray[np.float32] | None = None
     species: dict[str, NDArray[np.float32]] = field(default_factory=dict)
     temperature_source: str = "given in K"
     velocity_m_s: NDArray[np.float32] | None = None
+    soot_alpha: float = 1.0
     _cache: dict = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "soot_alpha", check_soot_alpha(self.soot_alpha))
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -242,9 +248,15 @@ class Volume(Placed):
         return self.replace(velocity_m_s=_velocity(velocity_m_s, self.shape, "volume"))
 
     def with_sodium(self, sodium_fraction: ArrayLike | float) -> Volume:
-        """A copy with a sodium fraction (0..1, constant or grid) for the paper's sodium term."""
-        sodium = _fraction_grid(sodium_fraction, self.shape, "sodium_fraction", "volume")
-        return self.replace(sodium_fraction=sodium)
+        """A copy with a sodium fraction (0..1, constant or grid): the species ``Na`` (its lines;
+        the 2011 paper's sodium term)."""
+        what = f"species {SODIUM!r} fraction"
+        sodium = _fraction_grid(sodium_fraction, self.shape, what, "volume")
+        return self.replace(species={**self.species, SODIUM: sodium})
+
+    def with_soot_alpha(self, alpha: float) -> Volume:
+        """A copy whose absorption follows κ_λ = κ·(550 nm/λ)^α (see ``soot_alpha``)."""
+        return self.replace(soot_alpha=alpha)
 
     def macrocells(
         self,
@@ -280,6 +292,7 @@ class Volume(Placed):
         box_side_m: float | None = None,
         velocity_m_s: ArrayLike | None = None,
         copy: bool = True,
+        soot_alpha: float = 1.0,
     ) -> Volume:
         """Validate and place grids; ``source`` names the data's origin in error messages;
         ``absorption_source`` says where an absorption grid came from (metadata, ``--stats``);
@@ -304,10 +317,9 @@ class Volume(Placed):
             kappa[vacuum] = 0.0
         scale = _optional_grid(emission_scale, temp.shape, "emission_scale", source)
         origin = _origin(origin_m, temp.shape, voxel)
-        sodium = _fraction_grid(sodium_fraction, temp.shape, "sodium_fraction", source)
         fractions = {
             str(name): _f32(grid if vacuum is None else np.where(vacuum, 0.0, grid))  # vacuum
-            for name, value in (species or {}).items()
+            for name, value in _with_sodium(species, sodium_fraction, source).items()
             if (grid := _fraction_grid(value, temp.shape, f"species {name!r} fraction", source))
             is not None
         }
@@ -317,7 +329,7 @@ class Volume(Placed):
             rule += f", vacuum below {remap.cutoff_K:g} K" if remap.cutoff_K else ""
         velocity = _velocity(velocity_m_s, temp.shape, source)
         volume = cls(
-            temp, _f32(kappa), scale, origin, voxel, how, sodium, fractions, rule, velocity
+            temp, _f32(kappa), scale, origin, voxel, how, fractions, rule, velocity, soot_alpha
         )
         if kappa0 is not None:  # κ ∈ {0, κ₀} by construction: no scan for other values needed
             min_K = max(remap.cutoff_K, DEFAULT_ABSORPTION_MIN_K if absorption is None else 0.0)
@@ -534,6 +546,33 @@ def _velocity(value, shape, source: str) -> NDArray[np.float32] | None:
             "(a 3-vector in m/s per voxel)"
         )
     return _f32(np.array(_validate.finite(arr, f"{source}: velocity (m/s)"), dtype=np.float32))
+
+
+#: The species whose fraction a ``sodium_fraction`` grid gives (the 2011 paper's sodium term).
+SODIUM = "Na"
+
+
+def check_soot_alpha(alpha) -> float:
+    """The soot exponent α of κ_λ = κ·(550 nm/λ)^α, a number in [0, 4]."""
+    if isinstance(alpha, bool) or not isinstance(alpha, (int, float, np.number)):
+        raise ValueError(f"soot_alpha must be a number in [0, 4]; got {alpha!r}")
+    if not np.isfinite(float(alpha)) or not 0 <= alpha <= 4:
+        raise ValueError(f"soot_alpha must be in [0, 4]; got {alpha!r}")
+    return float(alpha)
+
+
+def _with_sodium(species, sodium_fraction, source: str) -> dict:
+    """The species fractions with ``sodium_fraction`` (if given) as species ``Na``."""
+    out = dict(species or {})
+    if sodium_fraction is None:
+        return out
+    if SODIUM in out:
+        raise ValueError(
+            f"{source}: sodium_fraction is the fraction of species {SODIUM!r}, also given; "
+            "give one of them"
+        )
+    out[SODIUM] = sodium_fraction
+    return out
 
 
 def _fraction_grid(value, shape, name: str, source: str):

@@ -56,12 +56,13 @@ class SparseVolume(Placed):
     temperature_source: str = "given in K"
     #: (n, 8, 8, 8, 3) float32 gas velocity in m/s (motion blur), or None
     leaf_velocity_m_s: NDArray[np.float32] | None = None
+    #: the absorption's spectral law κ_λ = κ·(550 nm/λ)^α (``Volume.soot_alpha``)
+    soot_alpha: float = 1.0
     _cache: dict = field(default_factory=dict, repr=False)
 
     # What a dense Volume has that a sparse one does not carry (the sparse layout marches
-    # blackbody emission from κ and T; species, sodium and emission-scale grids stay dense).
+    # blackbody emission from κ and T; species and emission-scale grids stay dense).
     emission_scale = None
-    sodium_fraction = None
     species: ClassVar[Mapping[str, NDArray[np.float32]]] = MappingProxyType({})
 
     @classmethod
@@ -112,7 +113,7 @@ class SparseVolume(Placed):
         leaves farther from any absorption is never read and is dropped. ``blur_rings``: motion
         blur reads the velocity in every macrocell that many leaves from an absorbing one, so
         those leaves (and one more ring, for the trilinear stencil) keep their velocity."""
-        extra = [n for n in ("emission_scale", "sodium_fraction") if getattr(volume, n) is not None]
+        extra = ["emission_scale"] if volume.emission_scale is not None else []
         if extra or volume.species:
             names = ", ".join(extra + [f"species {s}" for s in volume.species])
             raise ValueError(f"the sparse layout carries T and κ only; this volume has {names}")
@@ -140,6 +141,7 @@ class SparseVolume(Placed):
             volume.absorption_source,
             volume.temperature_source,
             velocity,
+            volume.soot_alpha,
         )
         out._cache[("macrocells", LEAF, "absorption")] = cells  # the same cells, exactly
         out._cache["two_valued_kappa"] = volume.two_valued_absorption_per_m
@@ -246,6 +248,7 @@ class SparseVolume(Placed):
             self.absorption_source,
             temperature_source=self.temperature_source,
             velocity_m_s=velocity,
+            soot_alpha=self.soot_alpha,
         )
 
 

@@ -14,11 +14,12 @@ exactly, so a uniform medium is integrated exactly for any step size.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from incandescent.emission import Bands, EmissionModel, transport_bands
+from incandescent.emission import Bands, EmissionModel
 from incandescent.renderer.rays import RayBatch, RaySpec
 from incandescent.renderer.settings import RenderSettings
 from incandescent.spectra.lut import EmissionLUT
@@ -32,9 +33,12 @@ THIN_STEP = 1e-3
 class MarchInputs:
     """Everything a backend needs; built once per render on the host."""
 
+    #: how light is transported: a ``renderer.integrators.Integrator`` (not imported here: the
+    #: integrators import this module)
+    integrator: Any
     rays: RayBatch | None  # host-generated rays that hit the box (reference backend); else None
     volume: Volume
-    models: tuple[EmissionModel, ...]  # what emits (``incandescent.emission.models_for``)
+    models: tuple[EmissionModel, ...]  # what emits (``integrator.models(volume)``)
     macrocells: MacrocellGrid | None
     settings: RenderSettings
     ray_spec: RaySpec | None = None  # what the Dr.Jit kernels generate their rays from
@@ -42,17 +46,23 @@ class MarchInputs:
     @property
     def bands(self) -> Bands:
         """The wavelength bands of transport (grey, or spectral bins)."""
-        return transport_bands(self.models)
-
-    @property
-    def display(self) -> EmissionModel | None:
-        """The display model that replaces transport (the paper's), or None."""
-        return next((m for m in self.models if m.kind == "display"), None)
+        return self.integrator.bands(self.models)
 
     @property
     def lut(self) -> EmissionLUT:
-        """The first model's first table: every table shares its 1/T spacing and T_min."""
-        return self.models[0].tables[0]
+        """The table whose 1/T spacing and T_min every table of the render shares."""
+        return self.integrator.first_table(self.models)
+
+
+class Segment(NamedTuple):
+    """One segment of the rays ``r`` (float64, the reference): its ends ``a``, ``b`` in voxels
+    along the ray, its midpoint ``p`` (voxel coordinates, (m, 3)) and length ``ds_m`` in m."""
+
+    r: NDArray[np.int64]
+    a: NDArray[np.float64]
+    b: NDArray[np.float64]
+    p: NDArray[np.float64]
+    ds_m: NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -5,10 +5,12 @@ iteration handles one segment of the step lattice (see ``common``): either
 
 * the segment's midpoint lies in an *empty* macrocell → jump, with one 3-D DDA step, to the first
   segment that reaches the cell's exit (no sample is taken; the image is unchanged because an empty
-  cell, border included, guarantees κ = 0 at every sample in it); or
-* sample κ trilinearly, and only where κ > 0 (``dr.if_stmt``: the CPU backend branches around the
-  block when no lane of a packet needs it) sample T, look up XYZ(B(T)) in the 1/T table and
-  integrate the segment exactly.
+  cell, border included, guarantees that no sample in it interacts); or
+* sample κ and T trilinearly (and the emission models' grids), and only where the render's
+  integrator says the sample interacts (``dr.if_stmt``: the CPU backend branches around the
+  block when no lane of a packet needs it) let the integrator's traced program update the ray's
+  transmittance and radiance (``renderer.integrators``: emission–absorption sums the emission
+  models' table lookups and integrates the segment exactly).
 
 Outputs are the loop's own state variables (XYZ, transmittance, sample count): no scatters.
 """
@@ -29,7 +31,6 @@ from incandescent.renderer.backends.bricks import (
 )
 from incandescent.renderer.backends.bricks import plan as volume_plan
 from incandescent.renderer.backends.common import (
-    THIN_STEP,
     MarchInputs,
     MarchResult,
     upper_samples_per_ray,
@@ -41,7 +42,8 @@ from incandescent.volume.sparse import SparseVolume
 class _Kernel:
     """Traced helpers bound to one Dr.Jit array module (``drjit.llvm`` or ``drjit.cuda``) and one
     render: the medium, the emission models' device data, the step lattice and the macrocells.
-    The models (``incandescent.emission``) add their terms through :meth:`lookup`,
+    The models (``incandescent.emission``) and the integrator's traced program
+    (``renderer.integrators``, :attr:`program`) add their terms through :meth:`lookup`,
     :meth:`trilinear`, :meth:`table` and :meth:`grid`."""
 
     def __init__(self, m, inputs: MarchInputs) -> None:
@@ -79,7 +81,6 @@ class _Kernel:
         self.cell_shape = None if cells is None else cells.shape
         self.cell_voxels = None if cells is None else np.float32(cells.cell_voxels)
         self.bands = inputs.bands
-        self.kappa_scale = [np.float32(k) for k in self.bands.kappa_scale]
         self.terms = [(model, model.bind(self)) for model in inputs.models]
         #: motion blur: the velocity grid's x, y, z components (m/s), and each ray's time in s
         #: divided by the voxel side (set by ``trace``); None without blur
@@ -90,11 +91,7 @@ class _Kernel:
             else:
                 v = vol.velocity_m_s
                 self.velocity = [self.grid(("velocity", a), v[..., a]) for a in range(3)]  # type: ignore[index]
-        self.display = next(((mo, b) for mo, b in self.terms if mo.kind == "display"), None)
-        self.sources = [(mo, b, i) for i, (mo, b) in enumerate(self.terms) if mo.kind == "source"]
-        self.coefficients = [
-            (mo, b, i) for i, (mo, b) in enumerate(self.terms) if mo.kind == "coefficient"
-        ]
+        self.program = inputs.integrator.traced(self)
 
     # --- what the emission models use -----------------------------------------------------
     def table(self, lut) -> object:
@@ -205,73 +202,10 @@ class _Kernel:
         lo, hi = dr.gather(Array4f, table, i0), dr.gather(Array4f, table, i0 + 1)
         return dr.lerp(Array3f(lo[0], lo[1], lo[2]), Array3f(hi[0], hi[1], hi[2]), frac)
 
-    # --- the models' sums -------------------------------------------------------------------
-    def source_function(self, band: int, position, sampled):
-        """S = Σ of the source models' terms in ``band`` (XYZ per unit absorption)."""
-        eta = None
-        for model, bound, i in self.sources:
-            eta = model.add(self, bound, eta, band, position, sampled[i])
-        return self.m.Array3f(0.0) if eta is None else eta
-
-    def emission_coefficient(self, band: int, kappa, temp, sampled):
-        """η = κ·S + Σ of the coefficient models' terms, per metre; 0 below the tables' T_min."""
-        position = self.lut_position(temp)
-        eta = self.source_function(band, position, sampled) * kappa
-        for model, bound, i in self.coefficients:
-            eta = model.add(self, bound, eta, band, position, sampled[i])
-        return self.dr.select(temp >= self.lut_t_min, eta, 0.0)
-
     # --- one segment ----------------------------------------------------------------------
-    def integrate(self, tr, L, kappa, temp, c, ds_m, sampled):
-        """Exact emission–absorption over one segment in the grey band (Kirchhoff, DESIGN §3):
-        L += Tr·S·(1 − e^{−κΔs}); with coefficient models, L += Tr·η·(1 − e^{−κΔs})/κ
-        (→ Tr·η·Δs as κ → 0)."""
-        dr = self.dr
-        x = kappa * ds_m
-        e = dr.exp(-x)
-        series = 1.0 - x * (0.5 - x * (1.0 / 6.0))
-        if self.coefficients:
-            eta = self.emission_coefficient(0, kappa, temp, sampled)
-            weight = dr.select(x < THIN_STEP, ds_m * series, (1.0 - e) / kappa)
-        else:
-            source = self.source_function(0, self.lut_position(temp), sampled)
-            eta = dr.select(temp >= self.lut_t_min, source, 0.0)
-            weight = dr.select(x < THIN_STEP, x * series, 1.0 - e)
-        if self.scale is not None:
-            eta = eta * self.trilinear(self.scale, c)
-        return tr * e, dr.fma(eta, tr * weight, L)
-
-    def integrate_bands(self, tr, L, kappa, temp, c, ds_m, sampled):
-        """Spectral bins: per band b, κ_b = κ·(λ_ref/λ_b)^α and L += Tr_b·S_b·(1 − e^{−κ_bΔs})
-        (with coefficient models Tr_b·η_b·(1 − e^{−κ_bΔs})/κ_b); ``tr`` is the list of
-        per-band transmittances."""
-        dr = self.dr
-        position = self.lut_position(temp)
-        valid = temp >= self.lut_t_min
-        scale = 1.0 if self.scale is None else self.trilinear(self.scale, c)
-        updated = []
-        for band, (kappa_scale, tr_b) in enumerate(zip(self.kappa_scale, tr, strict=True)):
-            x = kappa * (ds_m * kappa_scale)
-            e = dr.exp(-x)
-            series = 1.0 - x * (0.5 - x * (1.0 / 6.0))
-            if self.coefficients:
-                kappa_b = kappa * kappa_scale
-                eta = self.emission_coefficient(band, kappa_b, temp, sampled) * scale
-                weight = dr.select(x < THIN_STEP, ds_m * series, (1.0 - e) / kappa_b)
-                L = dr.fma(eta, tr_b * weight, L)
-            else:
-                alpha = dr.select(x < THIN_STEP, x * series, 1.0 - e)
-                xyz = dr.select(valid, self.source_function(band, position, sampled), 0.0)
-                L = dr.fma(xyz, tr_b * alpha * scale, L)
-            updated.append(tr_b * e)
-        return updated, L
-
-    def display_step(self, tr, L, kappa, temp, c, ds_m, sampled):
-        model, bound = self.display
-        return model.accumulate(self, bound, tr, L, temp, c, ds_m)
-
     def sample(self, k, tr, L, n, depth, p, t_mid, ds_m):
-        """One segment: sample (κ, T) at its midpoint and integrate where the medium emits."""
+        """One segment: sample (κ, T) at its midpoint; the integrator's program updates the ray
+        where the sample interacts."""
         dr = self.dr
         c = self.corners(p)
         if self.velocity is not None:  # backward advection: the gas at p now was at p − v·t
@@ -279,27 +213,16 @@ class _Kernel:
             c = self.corners(dr.fma(v, -self.time_voxels, p))
         kappa, temp = self.medium_at(c)
         sampled = [model.sample(self, bound, c) for model, bound in self.terms]
-        if self.display is not None:
-            interacts = emits = self.display[0].interacts(self, temp)
-        else:  # a cold sample (T below the tables) still absorbs; it only emits nothing
-            present = kappa > 0.0
-            for (model, _), values in zip(self.terms, sampled, strict=True):
-                present = model.present(present, values)
-            interacts, emits = present, present & (temp >= self.lut_t_min)
+        interacts, emits = self.program.interacts(kappa, temp, sampled)
         tr, L = dr.if_stmt(
             (tr, L, kappa, temp, c, ds_m, sampled),
             interacts,
-            self._accumulator(),
+            self.program.step,
             lambda tr, L, kappa, temp, c, ds_m, sampled: (tr, L),
         )
         first = emits & (depth == np.inf)
         depth = dr.select(first, t_mid * self.ds_per_voxel, depth)
         return k + 1.0, tr, L, n + 1, depth
-
-    def _accumulator(self):
-        if self.display is not None:
-            return self.display_step
-        return self.integrate if self.bands.grey else self.integrate_bands
 
     # --- empty space --------------------------------------------------------------------------
     def cell_index(self, p):
@@ -600,12 +523,7 @@ def trace(inputs: MarchInputs, m, order, K: _Kernel | None = None):
         return a, b
 
     def alive(tr):
-        if K.bands.grey:
-            return tr >= K.min_tr
-        most = tr[0]
-        for tr_b in tr[1:]:
-            most = dr.maximum(most, tr_b)
-        return most >= K.min_tr
+        return K.program.alive(tr) >= K.min_tr
 
     def cond(k, tr, L, n, depth):
         a, _ = segment(k)
@@ -628,12 +546,9 @@ def trace(inputs: MarchInputs, m, order, K: _Kernel | None = None):
         radius = K.empty_radius(args[5])
         return dr.if_stmt(args + (radius,), radius > 0.0, skip, sample)
 
-    tr0 = m.Float(1.0) if K.bands.grey else [m.Float(1.0) for _ in range(K.bands.count)]
-    state = (m.Float(0.0), tr0, m.Array3f(0.0), m.UInt(0), m.Float(np.inf))
+    state = (m.Float(0.0), K.program.transmittance0(), m.Array3f(0.0), m.UInt(0), m.Float(np.inf))
     _, tr, L, n, depth = dr.while_loop(state, cond, body, labels=("k", "tr", "L", "n", "depth"))
-    if not K.bands.grey:  # report the mean transmittance over the bins
-        tr = sum(tr[1:], tr[0]) * (1.0 / K.bands.count)
-    return L, tr, n, depth
+    return L, K.program.transmittance_out(tr), n, depth
 
 
 #: Chunks of rays. The first holds FIRST_CHUNK_SAMPLES upper-bound samples (rays × steps across
