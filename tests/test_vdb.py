@@ -436,10 +436,12 @@ def test_a_crash_in_the_isolated_nanovdb_reader_is_a_clear_error(tmp_path):
     process, and a worker that dies becomes a ValueError naming the file; the next read works."""
     import os
 
+    from incandescent.io.vdb import nanovdb
+
     path = tmp_path / "crash.nvdb"
     with pytest.raises(ValueError, match="crash.nvdb: the NanoVDB reader .tinyvdb. crashed"):
-        vdb._run_isolated(path, os.abort)
-    assert vdb._run_isolated(path, abs, -3) == 3  # a fresh worker after the crash
+        nanovdb.run_isolated(path, os.abort)
+    assert nanovdb.run_isolated(path, abs, -3) == 3  # a fresh worker after the crash
 
 
 def test_a_grid_a_flag_names_but_cannot_be_read_stops_with_the_reason():

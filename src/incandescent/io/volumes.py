@@ -21,8 +21,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from incandescent.budget import Limits
+from incandescent.io import vdb
 from incandescent.io.formats import SCIENCE_SUFFIXES, VDB_SUFFIXES, VOLUME_SUFFIXES
 from incandescent.io.grids import Grids, GridSource
+from incandescent.io.vdb.source import (  # imported from here (volume.assemble)
+    DENSE_READ_BYTES_PER_VOXEL as DENSE_READ_BYTES_PER_VOXEL,
+)
+from incandescent.io.vdb.source import open_source
 
 SUFFIXES = VOLUME_SUFFIXES
 
@@ -240,7 +245,7 @@ def open_grids(
         )
     check_input_file(path)
     if suffix in VDB_SUFFIXES:
-        return _vdb_source(path, limits)
+        return open_source(path, limits)
     if suffix in SCIENCE_SUFFIXES:
         from incandescent.io.scientific import open_scientific
 
@@ -280,72 +285,6 @@ def _npy_reader(path: Path, data: NDArray) -> Callable[[Iterable[str]], Grids]:
         return Grids({n: data for n in names})
 
     return read
-
-
-#: Host bytes per voxel per grid of a dense read: the float32 box, the float64 working copy of
-#: validation and remapping, the Volume's float32 grid.
-DENSE_READ_BYTES_PER_VOXEL = 4 + 8 + 4
-
-
-def _vdb_source(path: Path, limits: Limits) -> GridSource:
-    """OpenVDB/NanoVDB through :mod:`incandescent.io.vdb`: the float grids it can read, densified
-    onto the union of their active boxes (refused when the machine's memory cannot hold it),
-    placed by the file's transform; where OpenVDB reads the file, also as sparse leaves."""
-    from incandescent.io import openvdb, vdb
-
-    infos = vdb.list_grids(path, ranges=False)  # names and readability are all a render needs
-    unreadable = {g.name: g.unreadable for g in infos if g.unreadable is not None}
-
-    def needed(names: Iterable[str]) -> list[str]:
-        names = list(names)
-        for name in names:  # a grid a role needs that exists but cannot be read: say why
-            if name in unreadable:
-                raise ValueError(f"{path}: grid {name!r} is needed but {unreadable[name]}")
-        return names
-
-    def read(names: Iterable[str]) -> Grids:
-        names = needed(names)
-        box = _dense_box_voxels(path, infos, names)
-        need = box * DENSE_READ_BYTES_PER_VOXEL * len(names)
-        limits.check_memory(need, f"reading {', '.join(names)} of {path} densely ({box} voxels)")
-        dense = vdb.read_grids(path, names, max_voxels=box)
-        first = next(iter(dense.values()))
-        arrays = {name: grid.values for name, grid in dense.items()}
-        return Grids(arrays, first.origin_m, first.voxel_size_m)
-
-    def read_leaves(names: Iterable[str], z_up: bool, rings: int = 0):
-        return vdb.read_leaves(path, needed(names), z_up, rings)
-
-    def extent(names: Iterable[str]) -> tuple[int, int]:
-        return vdb.box_and_active_voxels(path, needed(names))
-
-    sparse = path.suffix.lower() == ".vdb" and openvdb.interpreter() is not None
-    return GridSource(
-        path,
-        tuple(g.name for g in infos),
-        read,
-        read_leaves=read_leaves if sparse else None,
-        extent=extent if sparse else None,
-        value_max=lambda name: _largest(vdb.list_grids(path), name),
-    )
-
-
-def _largest(infos, name: str) -> tuple[float, float] | None:
-    """(largest value — a vector grid's largest magnitude —, voxel side in m) of grid ``name``."""
-    for info in infos:
-        if info.name == name and info.value_max is not None:
-            return float(info.value_max), float(info.voxel_size_m[0])
-    return None
-
-
-def _dense_box_voxels(path: Path, infos, names: list[str]) -> int:
-    """Voxels of the union of the named grids' active boxes (1 where none is known)."""
-    boxes = [(i.index_min, i.index_max) for i in infos if i.name in names and i.index_min]
-    if not boxes:
-        return 1
-    lo = np.min([b[0] for b in boxes], axis=0)
-    hi = np.max([b[1] for b in boxes], axis=0)
-    return int(np.prod(np.asarray(hi) - np.asarray(lo) + 1))
 
 
 @dataclass(frozen=True)
@@ -432,11 +371,9 @@ def _summary(source: GridSource, name: str) -> GridSummary:
 
 
 def _describe_vdb(path: Path) -> list[GridSummary]:
-    from incandescent.io import vdb
-
     out = []
-    sums = vdb.grid_sums(path)
-    for g in vdb.list_grids(path):
+    infos, sums = vdb.grids_with_sums(path)  # one listing of the file for both
+    for g in infos:
         shape = None
         if g.index_min is not None and g.index_max is not None:
             shape = tuple(hi - lo + 1 for lo, hi in zip(g.index_min, g.index_max, strict=True))
