@@ -45,7 +45,7 @@ __all__ = [
 def list_grids(path: str | Path, ranges: bool = True) -> list[GridInfo]:
     """Describe every grid in a ``.vdb`` or ``.nvdb`` file (errors name the file and problem).
 
-    ``.vdb`` files are read with OpenVDB itself where it is installed (:mod:`.openvdb`), else
+    ``.vdb`` files are read with OpenVDB itself where it is installed (:mod:`.via_openvdb`), else
     with tinyvdb. Without ``ranges`` OpenVDB leaves out the value ranges (a vector grid's range
     visits every value in Python): what a read needs."""
     path = checked_path(path)
