@@ -279,14 +279,14 @@ def _toml_as_dict() -> dict:
 
 def test_chunked_march_equals_one_launch(monkeypatch):
     """Ctrl-C needs the march in chunks; chunks must not change a single sample."""
-    from incandescent.renderer.backends import march
+    from incandescent.renderer.backends import chunks
 
     volume = plume(24)
     settings = inc.RenderSettings(width=48, height=40, supersample=2)
     whole = inc.render(volume, None, settings, "cpu")
-    monkeypatch.setattr(march, "FIRST_CHUNK_SAMPLES", 1.0)
-    monkeypatch.setattr(march, "MIN_CHUNK_RAYS", 1000)
-    monkeypatch.setattr(march, "MAX_CHUNK_SAMPLES", 1000 * 80.0)
+    monkeypatch.setattr(chunks, "FIRST_CHUNK_SAMPLES", 1.0)
+    monkeypatch.setattr(chunks, "MIN_CHUNK_RAYS", 1000)
+    monkeypatch.setattr(chunks, "MAX_CHUNK_SAMPLES", 1000 * 80.0)
     fractions = []
     chunked = inc.render(volume, None, settings, "cpu", progress=fractions.append)
     assert len(fractions) >= 6 and fractions[-1] == 1.0

@@ -10,14 +10,14 @@ from incandescent._jit import array_module, cuda_problem
 from incandescent.camera import Camera
 from incandescent.renderer import RenderSettings, render
 from incandescent.renderer.backends import BackendUnavailable, available_backends, resolve_backend
-from incandescent.renderer.backends.march import (
-    _device_grid,
-    _host_packed,
-    _host_signed,
-    _Kernel,
-    _packed_medium,
-    _signed_medium,
-    _threshold_K,
+from incandescent.renderer.backends.kernel import Kernel
+from incandescent.renderer.backends.medium import (
+    device_grid,
+    host_packed,
+    host_signed,
+    packed_medium,
+    signed_medium,
+    threshold_K,
 )
 from incandescent.volume import Remap, Volume, build_macrocells
 from incandescent.volume.macrocells import empty_radius
@@ -102,9 +102,9 @@ def test_device_grid_layouts_are_the_grids_in_c_order():
     temp = rng.uniform(300.0, 2000.0, (6, 4, 5))
     vol = Volume.from_arrays(temp, absorption=np.where(temp > 900.0, 2.5, 0.0))
     pair = np.stack([vol.absorption_per_m, vol.temperature_K], axis=-1).astype("<f4")
-    np.testing.assert_array_equal(_host_packed(vol), pair.view("<u8").ravel())
+    np.testing.assert_array_equal(host_packed(vol), pair.view("<u8").ravel())
     signed = np.where(vol.absorption_per_m > 0, vol.temperature_K, -vol.temperature_K)
-    np.testing.assert_array_equal(_host_signed(vol), signed.astype("<f4").view("<u4").ravel())
+    np.testing.assert_array_equal(host_signed(vol), signed.astype("<f4").view("<u4").ravel())
 
 
 @pytest.mark.parametrize("kind", ["cpu", "cuda"])
@@ -118,10 +118,10 @@ def test_device_layouts_equal_the_host_ones(kind):
     temp = rng.uniform(300.0, 2000.0, (6, 4, 5))
     two = Volume.from_arrays(temp, absorption=np.where(temp > 900.0, 2.5, 0.0))
     graded = Volume.from_arrays(temp, absorption=rng.uniform(0.0, 3.0, temp.shape))
-    np.testing.assert_array_equal(np.asarray(_signed_medium(m, two)), _host_signed(two))
-    np.testing.assert_array_equal(np.asarray(_packed_medium(m, graded)), _host_packed(graded))
+    np.testing.assert_array_equal(np.asarray(signed_medium(m, two)), host_signed(two))
+    np.testing.assert_array_equal(np.asarray(packed_medium(m, graded)), host_packed(graded))
     strided = rng.uniform(0.0, 2.0, (5, 4, 3, 2))[..., 1]  # float64, not contiguous
-    extra = _device_grid(m, two, ("test",), strided)
+    extra = device_grid(m, two, ("test",), strided)
     np.testing.assert_array_equal(np.asarray(extra), strided.astype(np.float32).ravel())
 
 
@@ -158,7 +158,7 @@ def test_kappa_made_from_t_renders_as_the_signed_layout(jit_backend):
     rng = np.random.default_rng(5)
     values = np.array([0.0, 300.0, 500.0, np.nextafter(np.float32(500), 0), 900.0, 2200.0])
     vol = Volume.from_arrays(rng.choice(values.astype(np.float32), (10, 12, 9)))
-    assert _threshold_K(vol) == 500.0 and _threshold_K(vol.replace()) is None
+    assert threshold_K(vol) == 500.0 and threshold_K(vol.replace()) is None
     s = RenderSettings(width=24, height=20)
     made, signed = (render(v, settings=s, backend=jit_backend) for v in (vol, vol.replace()))
     assert made.xyz.max() > 0
@@ -175,7 +175,7 @@ def test_corners_clamp_to_the_edge_voxel_as_the_padded_grid_did():
     shape = (5, 1, 4)  # one axis a single voxel thick
     grid = rng.uniform(0.0, 1.0, shape).astype(np.float32)
     vol = Volume.from_arrays(np.full(shape, 1500.0), absorption=1.0)
-    kernel = _Kernel(m, _march_inputs_for(vol))
+    kernel = Kernel(m, _march_inputs_for(vol))
     points = rng.uniform(-1.0, 1.0, (400, 3)) * 1.2 * np.array(shape) + np.array(shape) / 2
     points[:6] = [(0, 0, 0), (5, 1, 4), (0.25, 0.5, 3.9), (4.75, 0, 0.1), (2.5, 0.5, 2), (-1, 2, 9)]
     p = m.Array3f(*(m.Float(points[:, a].astype(np.float32)) for a in range(3)))
@@ -349,29 +349,29 @@ def test_llvm_check_names_what_to_install(monkeypatch, fake, expected):
 def test_kernel_inputs_start_on_cache_lines_so_each_render_traces_one_kernel():
     """Dr.Jit writes a mapped input's alignment into the kernel: lane arrays on 64-byte
     boundaries and chunks of whole 64-byte lines keep one kernel (and its disk-cache entry)."""
-    from incandescent.renderer.backends import march
+    from incandescent.renderer.backends import chunks
 
     for offset in range(4):
-        a = march._aligned(np.arange(1000 + offset, dtype=np.uint32)[offset:])
+        a = chunks._aligned(np.arange(1000 + offset, dtype=np.uint32)[offset:])
         assert a.ctypes.data % 64 == 0
         np.testing.assert_array_equal(a, np.arange(offset, 1000 + offset))
     sizes = [
-        march._next_chunk(r, s, u)
+        chunks._next_chunk(r, s, u)
         for r in (1 << 15, 50_001)
         for s in (0.01, 0.3)
         for u in (10.0, 777.0)
     ]
-    assert all(n % march.ALIGN_LANES == 0 and n >= march.MIN_CHUNK_RAYS for n in sizes)
+    assert all(n % chunks.ALIGN_LANES == 0 and n >= chunks.MIN_CHUNK_RAYS for n in sizes)
 
 
 def test_a_new_camera_or_seed_reuses_the_compiled_kernel(monkeypatch):
     """Camera placement, field of view and jitter seed are kernel inputs, not constants traced
     into it: a moving camera or a new seed does not compile the megakernel again."""
-    from incandescent.renderer.backends import march
+    from incandescent.renderer.backends import chunks
 
     seen: list[dict] = []
-    real = march._compile_seconds
-    monkeypatch.setattr(march, "_compile_seconds", lambda e: seen.append(e) or real(e))
+    real = chunks._compile_seconds
+    monkeypatch.setattr(chunks, "_compile_seconds", lambda e: seen.append(e) or real(e))
     vol = scenes.plume(12)
     s = RenderSettings(width=24, height=20, jitter=True)
     render(vol, Camera(eye=(0.1, 0.2, 2.0), fov_deg=40.0), s, backend="cpu")

@@ -1,7 +1,7 @@
 """Host-side passes over big grids on every core, slab by slab along x.
 
 A new volume costs passes over its grids before the first ray (macrocells, the κ and T scans,
-the box around the absorbing voxels; the device layout is a Dr.Jit pass, ``backends.march``).
+the box around the absorbing voxels; the device layout is a Dr.Jit pass, ``backends.medium``).
 NumPy releases the GIL inside its loops, so threads that each take one slab of x run those passes
 in parallel; the results are the serial ones exactly (each pass is a max or a min, order-free).
 """

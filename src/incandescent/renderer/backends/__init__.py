@@ -57,6 +57,6 @@ def run_march(inputs: MarchInputs, backend: str, progress=None) -> MarchResult:
         from incandescent.renderer.backends import reference
 
         return reference.march(inputs)
-    from incandescent.renderer.backends import march
+    from incandescent.renderer.backends import chunks
 
-    return march.march(inputs, backend, progress)
+    return chunks.march(inputs, backend, progress)

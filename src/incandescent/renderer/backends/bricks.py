@@ -1,7 +1,7 @@
 """The sparse device layout: a pool of 9³ bricks of the occupied part of a grid, and a brick index.
 
 The dense layout pads every grid by one edge-replicated voxel and samples it at padded coordinates
-u = clip(p, 0, n) + 0.5 (``march._Kernel.corners``): the lower trilinear corner is
+u = clip(p, 0, n) + 0.5 (``kernel.Kernel.corners``): the lower trilinear corner is
 i0 = ⌊u⌋ ∈ [0, n] and the upper one i0 + 1. Here the padded grid is cut into bricks of 8 lower
 corners per axis: brick b serves i0 ∈ [8b, 8b + 7] and stores the padded voxels 8b … 8b + 8 (9 per
 axis: the corners plus the one-voxel apron trilinear sampling needs), so a sample reads one brick
