@@ -24,7 +24,7 @@ from incandescent.budget import Limits
 from incandescent.io import vdb
 from incandescent.io.formats import SCIENCE_SUFFIXES, VDB_SUFFIXES, VOLUME_SUFFIXES
 from incandescent.io.grids import Grids, GridSource
-from incandescent.io.vdb.source import (  # imported from here (volume.assemble)
+from incandescent.io.vdb.source import (  # imported from here (config.assemble)
     DENSE_READ_BYTES_PER_VOXEL as DENSE_READ_BYTES_PER_VOXEL,
 )
 from incandescent.io.vdb.source import open_source
