@@ -8,6 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from _backends import ALL_BACKENDS
 
 from incandescent.simulation import FireSettings, FireSolver, Source, preset
 from incandescent.simulation.fields import Field
@@ -180,12 +181,15 @@ def test_gas_leaves_through_the_open_top_without_a_trace(maccormack):
     np.testing.assert_allclose(solver.ops.numpy(q), 300.0, rtol=1e-12)
 
 
-def test_a_flat_front_moves_into_the_fuel_at_the_flame_speed():
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_a_flat_front_moves_into_the_fuel_at_the_flame_speed(backend):
     """In a chimney (solid floor and walls, open top), fuel below y0 stays at rest while the
     products expand up and out: the front φ = 0 moves down through the fuel at S (here 0.2 m/s,
-    density ratio 5: the products leave at 4·S)."""
+    density ratio 5: the products leave at 4·S). Measured relative errors: the front 3.8e-7
+    (float64) and 9.2e-7 (float32; every column within 1.9e-6), the outflow 3.1e-7 and 2.1e-6;
+    asserted 1e-4 (the pressure tolerance's order)."""
     solver = _solver(
-        resolution=32, flame_speed_m_s=0.2, density_ratio=5.0, maccormack=True, walls=True
+        backend, 32, flame_speed_m_s=0.2, density_ratio=5.0, maccormack=True, walls=True
     )
     _, y, _ = _cells(solver)
     y0 = 24.0
@@ -200,10 +204,10 @@ def test_a_flat_front_moves_into_the_fuel_at_the_flame_speed():
     column = np.arange(solver.shape[1]) + 0.5
     front = np.interp(0.0, phi, column)  # φ rises with y
     moved_m = (y0 - front) * solver.h
-    assert moved_m == pytest.approx(0.2 * dt * steps, rel=0.05)  # measured 0.0800 m
+    assert moved_m == pytest.approx(0.2 * dt * steps, rel=1e-4)
     v = solver.ops.numpy(state.velocity[1]).reshape(solver.face[1].shape)
     top = v[solver.shape[0] // 2, -1, solver.shape[2] // 2] * solver.h
-    assert top == pytest.approx((5.0 - 1.0) * 0.2, rel=0.05)  # the jump: (ρ_f/ρ_h − 1)·S
+    assert top == pytest.approx((5.0 - 1.0) * 0.2, rel=1e-4)  # the jump: (ρ_f/ρ_h − 1)·S
 
 
 def test_temperature_stays_between_air_and_the_flame_maximum():
