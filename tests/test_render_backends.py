@@ -82,7 +82,7 @@ def test_two_valued_absorption_is_detected():
     assert scenes.soot_plume(16).two_valued_absorption_per_m is None
     all_vacuum = Volume.from_arrays(temp, absorption=2.0, remap=Remap(cutoff_K=2000.0))
     assert all_vacuum.two_valued_absorption_per_m is None
-    # what from_arrays knows from how κ was made equals a scan of the grid (replace() forgets);
+    # what from_arrays knows from how κ was made (its MediumSummary) equals a scan of the grid;
     # float32 grids take it from the validation's hottest voxel, others from κ's maximum
     made = [Volume.from_arrays(temp), Volume.from_arrays(temp, absorption=2.0), all_vacuum]
     for t in (temp.astype(np.float32), np.full((4, 4, 4), 499.5, np.float32)):
@@ -92,7 +92,8 @@ def test_two_valued_absorption_is_detected():
             ]
     assert sum(v.two_valued_absorption_per_m is None for v in made) >= 6  # both answers occur
     for vol in made:
-        assert vol.replace().two_valued_absorption_per_m == vol.two_valued_absorption_per_m
+        scanned = vol.replace(medium=None)  # nothing known: scanned
+        assert scanned.two_valued_absorption_per_m == vol.two_valued_absorption_per_m
 
 
 def test_device_grid_layouts_are_the_grids_in_c_order():
@@ -146,7 +147,7 @@ def test_kappa_made_from_t_absorbs_exactly_where_the_stored_t_reaches_its_thresh
     absorbs = vol.temperature_K >= np.float32(threshold)
     assert 0 < absorbs.sum() < absorbs.size or (absorption is not None and cutoff_K == 0)
     np.testing.assert_array_equal(vol.absorption_per_m > 0, absorbs)
-    assert vol.replace().absorbing_from_K is None
+    assert vol.replace(medium=None).absorbing_from_K is None
     given = Volume.from_arrays(kelvin, absorption=np.where(kelvin > 500.0, 1.5, 0.0))
     assert given.absorbing_from_K is None and given.two_valued_absorption_per_m == 1.5
 
@@ -158,9 +159,10 @@ def test_kappa_made_from_t_renders_as_the_signed_layout(jit_backend):
     rng = np.random.default_rng(5)
     values = np.array([0.0, 300.0, 500.0, np.nextafter(np.float32(500), 0), 900.0, 2200.0])
     vol = Volume.from_arrays(rng.choice(values.astype(np.float32), (10, 12, 9)))
-    assert threshold_K(vol) == 500.0 and threshold_K(vol.replace()) is None
+    unknown = vol.replace(medium=None)
+    assert threshold_K(vol) == 500.0 and threshold_K(unknown) is None
     s = RenderSettings(width=24, height=20)
-    made, signed = (render(v, settings=s, backend=jit_backend) for v in (vol, vol.replace()))
+    made, signed = (render(v, settings=s, backend=jit_backend) for v in (vol, unknown))
     assert made.xyz.max() > 0
     np.testing.assert_array_equal(made.xyz, signed.xyz)
     np.testing.assert_array_equal(made.transmittance, signed.transmittance)

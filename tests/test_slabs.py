@@ -9,7 +9,7 @@ import pytest
 
 from incandescent import _parallel as slabs
 from incandescent.volume import Volume, build_macrocells
-from incandescent.volume import grid as grid_module
+from incandescent.volume import scan as scan_module
 
 
 @pytest.fixture
@@ -56,7 +56,7 @@ def test_volume_scans_in_slabs(three_threads, kappa_values):
     kappa = rng.choice(np.array(kappa_values, dtype=np.float32), size=(11, 6, 7))
     temperature = rng.uniform(300, 2500, size=(11, 6, 7)).astype(np.float32)
     volume = Volume.from_arrays(temperature, kappa.copy())
-    volume = volume.replace()  # nothing known from construction: scanned
+    volume = volume.replace(medium=None)  # nothing known from construction: scanned
     assert volume.max_temperature_K == float(temperature.max())
     positive = np.unique(kappa[kappa > 0])
     expected = float(positive[0]) if positive.size == 1 else None
@@ -67,37 +67,37 @@ def test_volume_scans_in_slabs(three_threads, kappa_values):
 def test_positive_range_is_the_masked_minimum_and_the_maximum(monkeypatch, dtype):
     """The scan over float32 bits in chunks (a chunk smaller than the grid here) equals
     min(where > 0) and max, with zeros, −0, subnormals and no positive value at all."""
-    monkeypatch.setattr(grid_module, "_SCAN_CHUNK", 7)
+    monkeypatch.setattr(scan_module, "SCAN_CHUNK", 7)
     rng = np.random.default_rng(3)
     values = np.where(rng.random(50) > 0.5, rng.uniform(0.1, 9.0, 50), 0.0).astype(dtype)
     values[[3, 11]] = -0.0
     values[20] = np.finfo(dtype).smallest_subnormal * 3
     expected = (float(values.min(where=values > 0, initial=np.inf)), float(values.max()))
-    assert grid_module._positive_range(values) == expected
-    assert grid_module._positive_range(np.zeros(9, dtype)) == (np.inf, 0.0)
-    assert grid_module._positive_range(np.full(9, -0.0, dtype)) == (np.inf, 0.0)
+    assert scan_module.positive_range(values) == expected
+    assert scan_module.positive_range(np.zeros(9, dtype)) == (np.inf, 0.0)
+    assert scan_module.positive_range(np.full(9, -0.0, dtype)) == (np.inf, 0.0)
 
 
 def test_two_valued_scan_stops_at_a_graded_chunk(monkeypatch):
     """A second positive κ ends the scan (and tells the other slabs); one κ₀ scans everything."""
-    monkeypatch.setattr(grid_module, "_SCAN_CHUNK", 4)
+    monkeypatch.setattr(scan_module, "SCAN_CHUNK", 4)
     graded, two = threading.Event(), threading.Event()
     values = np.array([0, 2, 0, 3] + [0, 0, 0, 0.5] * 3, dtype=np.float32)
-    assert grid_module._positive_range(values, graded) == (2.0, 3.0)  # the first chunk's
+    assert scan_module.positive_range(values, graded) == (2.0, 3.0)  # the first chunk's
     assert graded.is_set()
-    assert grid_module._positive_range(np.tile(values[:3], 5), two) == (2.0, 2.0)
+    assert scan_module.positive_range(np.tile(values[:3], 5), two) == (2.0, 2.0)
     assert not two.is_set()
-    assert grid_module._positive_range(values, two) == (2.0, 3.0) and two.is_set()
+    assert scan_module.positive_range(values, two) == (2.0, 3.0) and two.is_set()
 
 
 def test_kappa_two_valued_in_each_slab_but_not_across_them_is_graded(three_threads):
     kappa = np.zeros((12, 4, 4), dtype=np.float32)
     temperature = np.full(kappa.shape, 1500.0)
     kappa[:4, 0, 0], kappa[8:, 1, 1] = 2.5, 1.0  # one κ in the first slab, another in the last
-    graded = Volume.from_arrays(temperature, kappa).replace()  # replace(): nothing known, scanned
+    graded = Volume.from_arrays(temperature, kappa).replace(medium=None)  # nothing known, scanned
     assert graded.two_valued_absorption_per_m is None
     kappa[8:, 1, 1] = 2.5
-    two_valued = Volume.from_arrays(temperature, kappa).replace()
+    two_valued = Volume.from_arrays(temperature, kappa).replace(medium=None)
     assert two_valued.two_valued_absorption_per_m == 2.5
 
 

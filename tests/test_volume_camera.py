@@ -132,7 +132,7 @@ def test_copy_false_copies_views_and_grids_a_cutoff_changes():
 def test_npz_grids_are_handed_over_by_the_reader(tmp_path):
     """``load_volume`` keeps the arrays NumPy read instead of copying them again."""
     from incandescent.api import load_volume
-    from incandescent.volume.grid import _handed_over
+    from incandescent.volume.validate import _handed_over
 
     temp = np.full(BIG, 1500.0, np.float32)
     np.savez(tmp_path / "v.npz", temperature=temp, absorption=np.ones(BIG, np.float32))

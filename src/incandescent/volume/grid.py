@@ -20,50 +20,38 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from incandescent import _validate
 from incandescent._parallel import map_slabs
 from incandescent.volume.macrocells import MacrocellGrid, build_macrocells
+from incandescent.volume.remap import Remap
+from incandescent.volume.scan import positive_range
+from incandescent.volume.validate import (
+    DEFAULT_ABSORPTION_MIN_K,
+    DEFAULT_OPTICAL_DEPTH,
+    SODIUM,
+    T_CEILING_K,
+    _absorption,
+    _f32,
+    _fraction_grid,
+    _optional_grid,
+    _origin,
+    _temperature,
+    _velocity,
+    _voxel_size,
+    _with_sodium,
+    check_soot_alpha,
+)
 
-#: Voxels at or above this temperature absorb under the default absorption, K.
-DEFAULT_ABSORPTION_MIN_K = 500.0
-#: Default optical depth across the largest side of the box.
-DEFAULT_OPTICAL_DEPTH = 1.0
-#: Hottest temperature a volume may hold, K: the top of the emission tables
-#: (``incandescent.spectra.lut.T_MAX_K``), so a table never grows with the input. Gas this hot is
-#: a plasma far outside the blackbody-gas model; hotter voxels are nearly always a wrong remap.
-T_CEILING_K = 100_000.0
-
-
-@dataclass(frozen=True)
-class Remap:
-    """Map a raw field to kelvin: ``T = (raw − offset)·scale``; T < ``cutoff_K`` is vacuum."""
-
-    offset: float = 0.0
-    scale: float = 1.0
-    cutoff_K: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ("offset", "scale", "cutoff_K"):
-            value = float(getattr(self, name))
-            if not np.isfinite(value):
-                raise ValueError(f"remap {name} must be finite; got {value!r}")
-        if self.scale <= 0:
-            raise ValueError(f"remap scale must be > 0; got {self.scale!r}")
-        if self.cutoff_K < 0:
-            raise ValueError(f"remap cutoff_K must be >= 0 K; got {self.cutoff_K!r}")
-
-    def apply(self, raw: NDArray) -> NDArray[np.float64]:
-        return (raw - self.offset) * self.scale
-
-    @classmethod
-    def from_range(cls, low_K: float, high_K: float, cutoff_K: float = 0.0) -> Remap:
-        """Map a normalised field linearly: raw 0 → ``low_K``, raw 1 → ``high_K``."""
-        low, high = float(low_K), float(high_K)
-        if not (np.isfinite(low) and np.isfinite(high)) or not 0 <= low < high:
-            raise ValueError(
-                f"temperature range must be LOW:HIGH in K, 0 <= LOW < HIGH; got {low_K}:{high_K}"
-            )
-        return cls(offset=-low / (high - low), scale=high - low, cutoff_K=cutoff_K)
+__all__ = [
+    "DEFAULT_ABSORPTION_MIN_K",
+    "DEFAULT_OPTICAL_DEPTH",
+    "SODIUM",
+    "T_CEILING_K",
+    "MediumSummary",
+    "Placed",
+    "Remap",
+    "Volume",
+    "check_soot_alpha",
+]
 
 
 class Placed:
@@ -85,41 +73,24 @@ class Placed:
         return lo, lo + self.size_m
 
 
-#: Values per chunk of the κ scan (1 MB, in cache; smaller chunks made the slab threads contend
-#: for the GIL).
-_SCAN_CHUNK = 1 << 18
+@dataclass(frozen=True)
+class MediumSummary:
+    """What :meth:`Volume.from_arrays` knows of the medium by construction, so that the kernel's
+    layout (``renderer.backends.medium``) needs no scan of κ.
 
-
-def _positive_range(values: NDArray, graded: threading.Event | None = None) -> tuple[float, float]:
-    """(smallest, largest) of the values > 0 (≥ 0 elsewhere, as validated); (inf, 0) if there are
-    none. One pass in cache-sized chunks; for float32 over the bits, which order as the values do:
-    bits − 1 wraps 0 (and −0) above every finite value, so its minimum + 1 is the smallest positive
-    value's bits (1.5× faster than a masked ``min(where=values > 0)``).
-
-    With ``graded``, stops at the first chunk after two different positive values were seen here
-    (then sets it) or it was set elsewhere: a graded κ is known as such after one chunk.
+    two_valued_absorption_per_m: κ₀ when every voxel's κ is 0 or κ₀ (None: κ is graded, or 0).
+    absorbing_from_K: the float32 T (K) from which a voxel absorbs — κ > 0 exactly where T ≥ it —
+        when κ was made from T (the default absorption, or a constant); None when not known.
+    max_temperature_K: the hottest voxel, K, as validation found it (None: not known).
     """
-    flat = np.ascontiguousarray(values).reshape(-1)
-    low, peak = np.inf, 0.0
-    scratch = np.empty(min(flat.size, _SCAN_CHUNK), np.uint32)
-    for start in range(0, flat.size, _SCAN_CHUNK):
-        chunk = flat[start : start + _SCAN_CHUNK]
-        peak = max(peak, float(chunk.max()))
-        if peak > 0:
-            low = min(low, _smallest_positive(chunk, scratch))
-        if graded is not None and (graded.is_set() or low < peak):
-            graded.set()
-            break
-    return low, peak
+
+    two_valued_absorption_per_m: float | None = None
+    absorbing_from_K: float | None = None
+    max_temperature_K: float | None = None
 
 
-def _smallest_positive(chunk: NDArray, scratch: NDArray[np.uint32]) -> float:
-    """The smallest value > 0 of a chunk of values ≥ 0; inf if none (see ``_positive_range``)."""
-    if chunk.dtype != np.float32:
-        return float(chunk.min(where=chunk > 0, initial=np.inf))
-    below = np.subtract(chunk.view(np.uint32), np.uint32(1), out=scratch[: chunk.size])
-    bits = int(below.min()) + 1
-    return float(np.uint32(bits).view(np.float32)) if 0 < bits <= 0x7F800000 else np.inf
+#: Grids whose change makes a volume's :class:`MediumSummary` stale.
+MEDIUM_GRIDS = ("temperature_K", "absorption_per_m")
 
 
 @dataclass(frozen=True, eq=False)
@@ -139,6 +110,7 @@ class Volume(Placed):
     soot_alpha: the spectral law of the absorption, κ_λ = κ·(550 nm/λ)^α (1: the Rayleigh
         limit; 1.39: Hottel & Broughton 1932), used where transport runs in spectral bins; κ is
         the absorption at 550 nm.
+    medium: what construction already knows of κ and T (:class:`MediumSummary`), or None.
     origin_m: world position of the corner of voxel (0, 0, 0), m.
     voxel_size_m: side of a voxel, m.
     absorption_source: how κ was given ("grid", "constant 2.0 1/m", or the default's description).
@@ -154,6 +126,7 @@ class Volume(Placed):
     temperature_source: str = "given in K"
     velocity_m_s: NDArray[np.float32] | None = None
     soot_alpha: float = 1.0
+    medium: MediumSummary | None = field(default=None, repr=False)
     _cache: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
@@ -202,6 +175,8 @@ class Volume(Placed):
     @property
     def max_temperature_K(self) -> float:
         """Hottest voxel, K (computed once: the grids are read-only)."""
+        if self.medium is not None and self.medium.max_temperature_K is not None:
+            return self.medium.max_temperature_K
         if "max_temperature_K" not in self._cache:
             t = self.temperature_K
             self._cache["max_temperature_K"] = float(
@@ -213,10 +188,12 @@ class Volume(Placed):
     def two_valued_absorption_per_m(self) -> float | None:
         """κ₀ when every voxel's κ is 0 or one value κ₀ > 0 (the default absorption; a constant κ
         with a cutoff), else None. The kernel then stores only T, its sign bit marking κ = 0."""
+        if self.medium is not None:
+            return self.medium.two_valued_absorption_per_m
         if "two_valued_kappa" not in self._cache:
             kappa, graded = self.absorption_per_m, threading.Event()
             ranges = map_slabs(
-                lambda lo, hi: _positive_range(kappa[lo:hi], graded), kappa.shape[0], kappa.size
+                lambda lo, hi: positive_range(kappa[lo:hi], graded), kappa.shape[0], kappa.size
             )
             low, peak = min(r[0] for r in ranges), max(r[1] for r in ranges)
             two_valued = 0 < low == peak and not graded.is_set()
@@ -228,10 +205,13 @@ class Volume(Placed):
         """T in K (a float32 value) from which a voxel absorbs — κ > 0 exactly where T ≥ it —
         when κ was made from T by :meth:`from_arrays` (the default absorption, or a constant);
         None when that is not known. The kernel then reads T alone."""
-        return self._cache.get("absorbing_from_K")
+        return None if self.medium is None else self.medium.absorbing_from_K
 
     def replace(self, **changes) -> Volume:
-        """A copy with ``changes`` applied (e.g. placement)."""
+        """A copy with ``changes`` applied (e.g. placement); new κ or T grids drop the medium
+        summary (it described the old ones)."""
+        if any(name in changes for name in MEDIUM_GRIDS):
+            changes.setdefault("medium", None)
         return replace(self, _cache={}, **changes)
 
     @property
@@ -328,175 +308,31 @@ class Volume(Placed):
             rule += f"; T = (raw − {remap.offset:g})·{remap.scale:g} K"
             rule += f", vacuum below {remap.cutoff_K:g} K" if remap.cutoff_K else ""
         velocity = _velocity(velocity_m_s, temp.shape, source)
-        volume = cls(
-            temp, _f32(kappa), scale, origin, voxel, how, fractions, rule, velocity, soot_alpha
-        )
-        if kappa0 is not None:  # κ ∈ {0, κ₀} by construction: no scan for other values needed
-            min_K = max(remap.cutoff_K, DEFAULT_ABSORPTION_MIN_K if absorption is None else 0.0)
-            volume._cache["two_valued_kappa"] = _made_peak(volume, kappa0, peak_K, min_K)
-            volume._cache["absorbing_from_K"] = _made_threshold_K(absorption, remap)
-        if peak_K is not None:  # the validation's maximum: no second pass for the hottest voxel
-            volume._cache["max_temperature_K"] = peak_K if peak_K >= remap.cutoff_K else 0.0
-        return volume
-
-
-def _temperature(
-    value: ArrayLike, remap: Remap, source: str, adopt: bool = False
-) -> tuple[NDArray, float | None]:
-    """(kelvin per voxel, hottest voxel K or None), validated: finite, ≥ 0 unless a cutoff removes
-    it, below T_CEILING_K. The array is new and writable, or with ``adopt`` the input itself when
-    it can be handed over (see :func:`_handed_over`). float32 input without offset or scale stays
-    float32 — (raw − 0)·1 in float64, rounded back, is raw exactly — and is checked in one
-    chunked pass (its min and max); anything else is remapped in float64."""
-    arr = np.asarray(value)
-    if arr.dtype != np.float32 or remap.offset != 0 or remap.scale != 1:
-        temp = _remapped_temperature(_grid(value, source)[0], remap, source)
-        _check_ceiling(temp, remap, source)
-        return temp, None
-    _check_shape(arr, source)
-    low, high = _finite_range(arr, source)
-    if low < 0:
-        _remapped_temperature(arr, remap, source, copy=False)  # names the voxel unless a cutoff
-    if high > T_CEILING_K:
-        _check_ceiling(arr, remap, source)  # raises, naming the voxel
-    return (arr if adopt and _handed_over(arr) else arr.copy()), high
-
-
-def _check_shape(arr: NDArray, name: str) -> None:
-    if arr.ndim != 3:
-        raise ValueError(f"{name} must be a 3-D grid (nx, ny, nz); got shape {arr.shape}")
-    if arr.size == 0:
-        raise ValueError(f"{name} is empty: shape {arr.shape}")
-
-
-def _handed_over(arr: NDArray) -> bool:
-    """Can ``arr`` become a Volume's grid as it is? float32, C-ordered, writable, and owning its
-    memory or the whole-array reshape of an array that does (what ``np.load`` returns) — not a
-    view into something else (a file mapping, a library's buffer, a larger array)."""
-    flags, base = arr.flags, arr.base
-    whole = base is None or (
-        isinstance(base, np.ndarray) and base.base is None and base.nbytes == arr.nbytes
-    )
-    return arr.dtype == np.float32 and flags.c_contiguous and flags.writeable and whole
-
-
-def _value_range(values: NDArray) -> tuple[float, float]:
-    """(min, max) of a 3-D grid, NaN if it holds a NaN: one pass over cache-sized runs of x-layers
-    on every core, without the grid-sized boolean temporaries of ``isfinite``/``< 0`` masks (each
-    a fresh allocation: the page faults cost more than the comparisons)."""
-    layers = max(1, _SCAN_CHUNK // max(1, values[0].size))
-
-    def slab(lo: int, hi: int) -> tuple[float, float]:
-        low, high = np.inf, -np.inf
-        for a in range(lo, hi, layers):
-            chunk = values[a : min(a + layers, hi)]
-            c_low, c_high = float(chunk.min()), float(chunk.max())
-            if np.isnan(c_low) or np.isnan(c_high):
-                return np.nan, np.nan
-            low, high = min(low, c_low), max(high, c_high)
-        return low, high
-
-    ranges = map_slabs(slab, values.shape[0], values.size)
-    if any(np.isnan(r[0]) for r in ranges):
-        return np.nan, np.nan
-    return min(r[0] for r in ranges), max(r[1] for r in ranges)
-
-
-def _finite_range(arr: NDArray, name: str) -> tuple[float, float]:
-    """(min, max) of a grid that must be finite; NaN or ±inf raises, naming the first."""
-    low, high = _value_range(arr)
-    if not (np.isfinite(low) and np.isfinite(high)):
-        _validate.finite(arr, name)  # raises with the offending value and its index
-    return low, high
-
-
-def _grid(
-    value: ArrayLike, name: str, like: tuple[int, ...] | None = None
-) -> tuple[NDArray, float]:
-    """A finite 3-D grid (``_validate.real_grid``: float32 as it is) of shape ``like`` when
-    given, and its minimum."""
-    arr = _validate.real_grid(value, name)
-    _check_shape(arr, name)
-    if like is not None and arr.shape != like:
-        raise ValueError(f"{name} grid has shape {arr.shape}; expected the temperature's {like}")
-    low, _ = _finite_range(arr, name)
-    return arr, low
-
-
-def _remapped_temperature(
-    raw: NDArray, remap: Remap, source: str, copy: bool = True
-) -> NDArray[np.float64]:
-    temp = np.array(remap.apply(raw), dtype=np.float64) if copy else raw
-    negative = temp < 0
-    if remap.cutoff_K <= 0 and negative.any():
-        index = tuple(int(i) for i in np.argwhere(negative)[0])
-        raise ValueError(
-            f"{source}: temperature {temp[index]:g} K at voxel {index} is negative after remap "
-            f"(offset={remap.offset:g}, scale={remap.scale:g}); kelvin must be >= 0 — "
-            "fix the remap or set a cutoff"
-        )
-    return temp
-
-
-def _check_ceiling(temp: NDArray, remap: Remap, source: str) -> None:
-    """Refuse voxels hotter than T_CEILING_K, naming the first and the remap that made it."""
-    hot = temp > T_CEILING_K
-    if hot.any():
-        index = tuple(int(i) for i in np.argwhere(hot)[0])
-        raise ValueError(
-            f"{source}: temperature {temp[index]:.4g} K at voxel {index} is above the "
-            f"{T_CEILING_K:g} K ceiling of the emission tables (remap offset={remap.offset:g}, "
-            f"scale={remap.scale:g}); if the field is not in kelvin, map it with --scale, "
-            "--temperature-range or a --preset"
+        kappa = _f32(kappa)
+        medium = _summary(kappa, kappa0, peak_K, absorption, remap)
+        return cls(
+            temp, kappa, scale, origin, voxel, how, fractions, rule, velocity, soot_alpha, medium
         )
 
 
-#: Voxel sides a Volume accepts, m: a nanometre to a thousand kilometres.
-VOXEL_SIZE_RANGE_M = (1e-9, 1e6)
+def _summary(kappa, kappa0, peak_K, absorption, remap: Remap) -> MediumSummary | None:
+    """What construction knows: κ ∈ {0, κ₀} when κ was made from T (no scan needed for other
+    values), and the validation's hottest voxel (no second pass); None when it knows neither."""
+    if kappa0 is None and peak_K is None:
+        return None
+    hottest = None if peak_K is None else (peak_K if peak_K >= remap.cutoff_K else 0.0)
+    if kappa0 is None:
+        return MediumSummary(max_temperature_K=hottest)
+    min_K = max(remap.cutoff_K, DEFAULT_ABSORPTION_MIN_K if absorption is None else 0.0)
+    two_valued = _made_peak(kappa, kappa0, peak_K, min_K)
+    return MediumSummary(two_valued, _made_threshold_K(absorption, remap), hottest)
 
 
-def _voxel_size(voxel_size_m: float | None, shape: tuple[int, ...]) -> float:
-    if voxel_size_m is None:
-        return 1.0 / max(shape)
-    size = _validate.positive_scalar(voxel_size_m, "voxel_size_m")
-    low, high = VOXEL_SIZE_RANGE_M
-    if not low <= size <= high:
-        raise ValueError(f"voxel_size_m must be in [{low:g}, {high:g}] m; got {voxel_size_m!r}")
-    return size
-
-
-def _origin(origin_m: ArrayLike | None, shape: tuple[int, ...], voxel: float) -> tuple:
-    if origin_m is None:
-        return tuple(-0.5 * n * voxel for n in shape)
-    origin = _validate.finite(_validate.real_array(origin_m, "origin_m"), "origin_m")
-    if origin.shape != (3,):
-        raise ValueError(f"origin_m must be 3 numbers (x, y, z) in m; got shape {origin.shape}")
-    return tuple(float(v) for v in origin)
-
-
-def _absorption(
-    value, temp: NDArray, side_m: float, source: str, adopt: bool = False
-) -> tuple[NDArray, str, float | None]:
-    """(κ per voxel in 1/m, how it was given, κ₀ when it was made as κ₀ or 0 per voxel). κ is a
-    new writable float32 array (values rounded once from float64), or with ``adopt`` the given
-    grid itself when it can be handed over; the default is scaled to the box's largest side
-    ``side_m``."""
-    if value is None:
-        kappa = np.float32(DEFAULT_OPTICAL_DEPTH / side_m)
-        grid = np.where(temp >= DEFAULT_ABSORPTION_MIN_K, kappa, np.float32(0.0))
-        how = f"default: {kappa:g} 1/m where T >= {DEFAULT_ABSORPTION_MIN_K:g} K"
-        return grid, how, float(kappa)
-    if np.ndim(value) == 0:
-        kappa = np.float32(_nonnegative_scalar(value, "absorption (1/m)"))
-        return np.full(temp.shape, kappa), f"constant {kappa:g} 1/m", float(kappa)
-    return _checked_grid(value, temp.shape, "absorption", source, adopt), "grid", None
-
-
-def _made_peak(volume: Volume, kappa0: float, peak_K: float | None, min_K: float) -> float | None:
+def _made_peak(kappa, kappa0: float, peak_K: float | None, min_K: float) -> float | None:
     """The two-valued κ₀ of a κ made as κ₀ where T ≥ ``min_K`` K (0 elsewhere), None if no voxel
     got it: from the hottest voxel when validation found it (no pass over κ), else κ's maximum."""
     if peak_K is None:
-        peak = float(volume.absorption_per_m.max())
+        peak = float(kappa.max())
     else:
         peak = kappa0 if peak_K >= min_K else 0.0
     return peak if peak > 0 else None
@@ -513,85 +349,3 @@ def _made_threshold_K(absorption, remap: Remap) -> float | None:
         return 0.0
     threshold = float(np.float32(remap.cutoff_K))
     return threshold if threshold > 0 else None
-
-
-def _optional_grid(value, shape, name: str, source: str) -> NDArray[np.float32] | None:
-    if value is None:
-        return None
-    if np.ndim(value) == 0:
-        return _f32(np.full(shape, _nonnegative_scalar(value, name)))
-    return _f32(_checked_grid(value, shape, name, source))
-
-
-def _checked_grid(value, shape, name: str, source: str, adopt: bool = False) -> NDArray[np.float32]:
-    """A non-negative finite grid of ``shape`` as a new writable float32 array (or with ``adopt``
-    the input itself, see :func:`_handed_over`)."""
-    arr, low = _grid(value, f"{source}: {name}", shape)
-    if low < 0:
-        index = tuple(int(i) for i in np.argwhere(arr < 0)[0])
-        raise ValueError(f"{source}: {name} must be >= 0; got {arr[index]:g} at voxel {index}")
-    if adopt and _handed_over(arr):
-        return arr
-    return np.array(arr, dtype=np.float32)
-
-
-def _velocity(value, shape, source: str) -> NDArray[np.float32] | None:
-    """A finite (nx, ny, nz, 3) velocity grid in m/s as float32, or None."""
-    if value is None:
-        return None
-    arr = _validate.real_grid(value, f"{source}: velocity")
-    if arr.shape != tuple(shape) + (3,):
-        raise ValueError(
-            f"{source}: velocity grid has shape {arr.shape}; expected {tuple(shape) + (3,)} "
-            "(a 3-vector in m/s per voxel)"
-        )
-    return _f32(np.array(_validate.finite(arr, f"{source}: velocity (m/s)"), dtype=np.float32))
-
-
-#: The species whose fraction a ``sodium_fraction`` grid gives (the 2011 paper's sodium term).
-SODIUM = "Na"
-
-
-def check_soot_alpha(alpha) -> float:
-    """The soot exponent α of κ_λ = κ·(550 nm/λ)^α, a number in [0, 4]."""
-    if isinstance(alpha, bool) or not isinstance(alpha, (int, float, np.number)):
-        raise ValueError(f"soot_alpha must be a number in [0, 4]; got {alpha!r}")
-    if not np.isfinite(float(alpha)) or not 0 <= alpha <= 4:
-        raise ValueError(f"soot_alpha must be in [0, 4]; got {alpha!r}")
-    return float(alpha)
-
-
-def _with_sodium(species, sodium_fraction, source: str) -> dict:
-    """The species fractions with ``sodium_fraction`` (if given) as species ``Na``."""
-    out = dict(species or {})
-    if sodium_fraction is None:
-        return out
-    if SODIUM in out:
-        raise ValueError(
-            f"{source}: sodium_fraction is the fraction of species {SODIUM!r}, also given; "
-            "give one of them"
-        )
-    out[SODIUM] = sodium_fraction
-    return out
-
-
-def _fraction_grid(value, shape, name: str, source: str):
-    """A fraction grid in [0, 1] (constant or grid), or None."""
-    grid = _optional_grid(value, shape, name, source)
-    if grid is not None and grid.max() > 1.0:
-        index = tuple(int(i) for i in np.argwhere(grid > 1.0)[0])
-        got = f"{grid[index]:g} at voxel {index}"
-        raise ValueError(f"{source}: {name} must be in [0, 1]; got {got}")
-    return grid
-
-
-def _nonnegative_scalar(value, name: str) -> float:
-    if value == 0:
-        return 0.0
-    return _validate.positive_scalar(value, name)
-
-
-def _f32(arr: NDArray) -> NDArray[np.float32]:
-    out = np.ascontiguousarray(arr, dtype=np.float32)
-    out.setflags(write=False)
-    return out
