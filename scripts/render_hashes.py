@@ -80,12 +80,25 @@ def _demo_cases() -> dict[str, Callable[[], tuple]]:
     return {f"demo {n}": (lambda n=n: (SCENES[n].build(24), None, s, None)) for n in names}
 
 
+def _blur_cases() -> dict[str, Callable[[], tuple]]:
+    """Motion blur (cpu only: the reference does not blur), dense and sparse."""
+    plume = scenes.plume(24)
+    velocity = np.zeros(plume.shape + (3,), np.float32)
+    velocity[..., 1] = 0.6  # rising at 0.6 m/s
+    s = inc.RenderSettings(**SIZE, shutter=(-0.25, 0.25), supersample=2)
+    blurred = plume.with_velocity(velocity)
+    return {
+        "blur": lambda: (blurred, None, s, None),
+        "blur sparse": lambda: (blurred, None, s.replace(layout="sparse"), None),
+    }
+
+
 def hashes(backends=("cpu", "reference")) -> dict[str, dict[str, str]]:
     out = {}
-    for name, make in {**_cases(), **_demo_cases()}.items():
+    for name, make in {**_cases(), **_demo_cases(), **_blur_cases()}.items():
         volume, camera, settings, integrator = make()
         for backend in backends:
-            if backend == "reference" and settings.supersample > 1:
+            if backend == "reference" and (settings.supersample > 1 or settings.shutter):
                 continue
             image = inc.render(volume, camera, settings, backend, integrator=integrator)
             out[f"{name} / {backend}"] = _digest(image)

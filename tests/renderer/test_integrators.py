@@ -176,3 +176,38 @@ def test_render_settings_hold_no_transport_mode():
     modes = {"brightness", "paper_exponent", "paper_gain", "paper_min_K", "spectral_bins",
              "soot_alpha", "line_table", "observer", "constants"}  # fmt: skip
     assert fields & modes == set()
+
+
+def test_old_scene_keys_and_flags_render_the_same_bits_through_the_cli(tmp_path):
+    """``[render] brightness = "paper"`` (one warning line) and ``--brightness paper --sodium``
+    give the pixels of ``[integrator] type = "paper2011"`` and ``species.Na``."""
+    from typer.testing import CliRunner
+
+    from incandescent.cli import app
+    from incandescent.io.images import read_exr
+
+    np.save(tmp_path / "gas.npy", np.linspace(500.0, 3500.0, 6 * 5 * 4).reshape(6, 5, 4))
+    head = f'[volume]\npath = "{tmp_path / "gas.npy"}"\n'
+    size = "[render]\nwidth = 9\nheight = 7\n"
+    old = head + size + 'brightness = "paper"\npaper_exponent = 2.0\n'
+    new = head + size + '[integrator]\ntype = "paper2011"\nexponent = 2.0\n'
+    runner, pixels = CliRunner(), {}
+    for name, text in (("old", old), ("new", new)):
+        (tmp_path / f"{name}.toml").write_text(text)
+        result = runner.invoke(app, ["render", str(tmp_path / f"{name}.toml"), "-o",
+                                     str(tmp_path / f"{name}.exr")])  # fmt: skip
+        assert result.exit_code == 0, result.output
+        warned = [line for line in result.output.splitlines() if line.startswith("warning:")]
+        assert len(warned) == (name == "old")
+        pixels[name] = read_exr(tmp_path / f"{name}.exr")[0]
+    np.testing.assert_array_equal(pixels["old"], pixels["new"])
+    args = ["render", str(tmp_path / "gas.npy"), "--width", "9", "--height", "7"]
+    for name, flags in (
+        ("flags", ["--brightness", "paper", "--sodium", "0.5"]),
+        ("sections", ["--integrator", "paper2011", "--species", "Na=0.5"]),
+    ):
+        result = runner.invoke(app, args + flags + ["-o", str(tmp_path / f"{name}.exr")])
+        assert result.exit_code == 0, result.output
+        pixels[name] = read_exr(tmp_path / f"{name}.exr")[0]
+    np.testing.assert_array_equal(pixels["flags"], pixels["sections"])
+    assert not np.array_equal(pixels["flags"], pixels["new"])  # the sodium term is in

@@ -189,7 +189,7 @@ def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRI
         "camera": repr(camera),
         "incandescent_version": __version__,
         "python": platform.python_version(),
-        "emission_models": ", ".join(model.name for model in inputs.models),
+        "emission_models": ", ".join(model.name for model in inputs.models) or "none",
         "layout": "sparse" if isinstance(inputs.volume, SparseVolume) else "dense",
     }
     return HDRImage(xyz, tr, s.space, metadata, depth, display_rgb)

@@ -33,16 +33,29 @@ class Kernel:
 
     def __init__(self, m, inputs: MarchInputs) -> None:
         self.dr, self.m = drjit_module(), m
-        vol, lut, s = inputs.volume, inputs.lut, inputs.settings
-        self.volume = vol
+        self.volume = vol = inputs.volume
         self.shape = vol.shape
+        self._bind_medium(vol)
+        self._bind_lattice(inputs)
+        self.bands = inputs.bands
+        self.terms = [(model, model.bind(self)) for model in inputs.models]
+        #: motion blur: the velocity grid's x, y, z components (m/s), and each ray's time in s
+        #: divided by the voxel side (set by ``trace``); None without blur
+        self.velocity = self.time_voxels = None
+        if inputs.ray_spec is not None and blurs(inputs.ray_spec, vol):
+            self.velocity = self._velocity(vol)
+        self.program = inputs.integrator.traced(self)
+
+    def _bind_medium(self, vol) -> None:
+        """The medium on the device: bricks or a dense layout (``medium``), its strides, and
+        the two-valued κ₀ and threshold the layout relies on."""
         self.brick_index = None
         self.strides: tuple[int, int, int]
         self.medium: object
         self.scale: object | None
         if isinstance(vol, SparseVolume):  # 9³ bricks of the occupied leaves (``bricks``)
             self.strides = (BRICK * BRICK, BRICK, 1)
-            self.medium, self.brick_index, self.brick_shape = device_bricks_of(m, vol)
+            self.medium, self.brick_index, self.brick_shape = device_bricks_of(self.m, vol)
             self.scale = None
         else:
             _, ny, nz = vol.shape
@@ -50,33 +63,32 @@ class Kernel:
             self.strides = tuple(  # type: ignore[assignment]
                 0 if n == 1 else s for n, s in zip(vol.shape, (ny * nz, nz, 1), strict=True)
             )
-            self.medium, self.scale = device_grids(m, vol)
+            self.medium, self.scale = device_grids(self.m, vol)
         kappa0 = vol.two_valued_absorption_per_m
         self.kappa0 = None if kappa0 is None else np.float32(kappa0)
         #: κ = κ₀ where T ≥ this (K), 0 below: the medium is T alone (``threshold_K``)
         self.kappa_from_K = None if self.brick_index is not None else threshold_K(vol)
+
+    def _bind_lattice(self, inputs: MarchInputs) -> None:
+        """The tables' 1/T spacing, the step lattice, early termination and the macrocells."""
+        lut, s, m = inputs.lut, inputs.settings, self.m
         self.first_table = lut  # every table shares its spacing (checked in table())
         self.lut_size, self.lut_t_min = lut.size, np.float32(lut.t_min_K)
         self.lut_w_min, self.lut_inv_dw = np.float32(lut.w_min), np.float32(lut.inv_dw)
-        self.ds_per_voxel = np.float32(vol.voxel_size_m)
+        self.ds_per_voxel = np.float32(inputs.volume.voxel_size_m)
         self.dt = np.float32(s.step_voxels)
         self.min_tr = np.float32(s.min_transmittance)
         cells = inputs.macrocells
         self.cells = None if cells is None else m.Float(cells.empty_radius.ravel())
         self.cell_shape = None if cells is None else cells.shape
         self.cell_voxels = None if cells is None else np.float32(cells.cell_voxels)
-        self.bands = inputs.bands
-        self.terms = [(model, model.bind(self)) for model in inputs.models]
-        #: motion blur: the velocity grid's x, y, z components (m/s), and each ray's time in s
-        #: divided by the voxel side (set by ``trace``); None without blur
-        self.velocity = self.time_voxels = None
-        if inputs.ray_spec is not None and blurs(inputs.ray_spec, vol):
-            if isinstance(vol, SparseVolume):
-                self.velocity = device_velocity_bricks(m, vol)
-            else:
-                v = vol.velocity_m_s
-                self.velocity = [self.grid(("velocity", a), v[..., a]) for a in range(3)]  # type: ignore[index]
-        self.program = inputs.integrator.traced(self)
+
+    def _velocity(self, vol) -> list:
+        """The velocity's x, y, z components on the device (bricks or dense grids), m/s."""
+        if isinstance(vol, SparseVolume):
+            return device_velocity_bricks(self.m, vol)
+        v = vol.velocity_m_s
+        return [self.grid(("velocity", a), v[..., a]) for a in range(3)]  # type: ignore[index]
 
     # --- what the emission models use -----------------------------------------------------
     def table(self, lut) -> object:
