@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from incandescent import animation
+from incandescent.animation import sequence as animation_sequence
 from incandescent.api import camera_from, load_volume
 from incandescent.benchmark import cpu_description, git_commit
 from incandescent.imaging import DisplaySettings
@@ -49,20 +49,20 @@ def animate_frames(pattern: str, out: Path) -> list[float]:
     from incandescent.cli import app
 
     stamps: list[float] = []
-    real_write = animation.write_png
+    real_write = animation_sequence.write_png
 
     def timed_write(*args, **kwargs):
         result = real_write(*args, **kwargs)
         stamps.append(time.perf_counter())
         return result
 
-    animation.write_png = timed_write
+    animation_sequence.write_png = timed_write
     argv = ["animate", pattern, "-o", str(out), "--width", str(RESOLUTION),
             "--height", str(RESOLUTION), "--overwrite"]  # fmt: skip
     try:
         app(argv, standalone_mode=False)
     finally:
-        animation.write_png = real_write
+        animation_sequence.write_png = real_write
     return [b - a for a, b in zip(stamps, stamps[1:], strict=False)]
 
 

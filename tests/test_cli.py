@@ -179,7 +179,7 @@ def test_demo_unknown_scene(tmp_path):
 
 
 def test_bench_json_reports_every_case():
-    result = _run("bench", "--json", "--size", 16, "--resolution", 16, "--repeat", 1)
+    result = _run("bench", "--json", "--size", 16, "--pixels", 16, "--repeat", 1)
     assert result.exit_code == 0, result.output
     report = json.loads(result.stdout)
     scene_names = [s["scene"] for s in report["scenes"]]
@@ -516,3 +516,91 @@ def test_render_progress_bar_only_on_a_terminal(monkeypatch, terminal):
         for fraction in (0.25, 1.0):
             report(fraction)
     assert ("rendering" in out.getvalue()) is terminal
+
+
+def test_bench_resolution_is_a_deprecated_alias_of_pixels(monkeypatch):
+    """`bench --resolution` meant image pixels while `simulate --resolution` means cells: bench
+    says --pixels now, and the old spelling still works for a release, with one warning."""
+    from incandescent import benchmark
+
+    seen = []
+    monkeypatch.setattr(
+        benchmark, "run", lambda scenes, size, pixels, *a, **k: seen.append(pixels) or {}
+    )
+    result = _run("bench", "--json", "--resolution", 24)
+    assert result.exit_code == 0, result.output
+    warned = [line for line in result.output.splitlines() if "deprecated" in line]
+    assert len(warned) == 1 and "--pixels" in warned[0]
+    assert _run("bench", "--json", "--pixels", 32).exit_code == 0
+    assert _run("bench", "--json").exit_code == 0
+    assert seen == [24, 32, 512]
+    clash = _run("bench", "--pixels", 16, "--resolution", 24)
+    assert clash.exit_code == 2 and "disagree" in clash.output
+    assert "--resolution" not in _run("bench", "--help").output  # hidden: --pixels is documented
+
+
+def test_every_flag_sets_a_key_of_the_scene_schema():
+    """The flag → scene map is the flags' keys: each names a field of the pydantic schema, and
+    one option name means one key in every command."""
+    from typer.main import get_command
+
+    from incandescent.cli import flags
+    from incandescent.config.schema import Scene
+    from incandescent.renderer.integrators import EmissionAbsorption, Paper2011
+
+    keys: dict[str, set] = {}
+    for name in ("RENDER", "DEMO", "INFO", "CONVERT", "ANIMATE", "SIMULATE", "BENCH"):
+        for flag in flags._flat(getattr(flags, name)):
+            if flag.key is None:
+                continue
+            keys.setdefault(flag.name, set()).add(flag.key)
+            section, *parts = flag.key.split(".")
+            model = Scene.model_fields[section].annotation
+            if section == "integrator" and parts != ["type"]:  # a parameter of an integrator
+                assert any(hasattr(kind, parts[0]) for kind in (EmissionAbsorption, Paper2011))
+                continue
+            for part in parts:
+                assert part in model.model_fields, (flag.name, flag.key)
+                model = model.model_fields[part].annotation
+    assert all(len(found) == 1 for found in keys.values()), keys
+    assert set(get_command(app).commands) >= {"render", "animate", "bench"}
+
+
+def test_animate_takes_a_scene_file_with_flags_over_it(tmp_path):
+    """`animate scene.toml`: its [volume] path is the sequence (a #### pattern, relative to the
+    file), its sections apply as in `render`, and flags override them."""
+    from incandescent.scenes import plume_temperature
+
+    base = plume_temperature(12)
+    for i in range(3):
+        np.save(tmp_path / f"fire_{i:04d}.npy", base * (0.8 + 0.1 * i))
+    scene = tmp_path / "fire.toml"
+    scene.write_text(
+        '[volume]\npath = "fire_####.npy"\n[render]\nwidth = 20\nheight = 14\n'
+        '[display]\ntonemap = "reinhard"\n',
+        encoding="utf-8",
+    )
+    out = tmp_path / "frames"
+    result = _run("animate", scene, "-o", out)
+    assert result.exit_code == 0, result.output
+    frames = sorted(out.glob("frame_*.png"))
+    assert len(frames) == 3 and Image.open(frames[0]).size == (20, 14)
+    result = _run("animate", scene, "-o", tmp_path / "wide", "--width", 28)
+    assert result.exit_code == 0, result.output
+    assert Image.open(tmp_path / "wide" / "frame_00000.png").size == (28, 14)
+    again = _run("animate", scene, "-o", out)
+    assert "0 rendered, 3 reused" in " ".join(again.output.split())
+
+
+def test_animate_of_a_scene_without_frame_size_makes_video_frames(tmp_path):
+    """A scene (or pattern) that sets no frame size gets animate's video size, 640×360 scaled
+    down here by one flag only: the other side stays the video default."""
+    from incandescent.scenes import plume_temperature
+
+    for i in range(2):
+        np.save(tmp_path / f"f_{i}.npy", plume_temperature(10))
+    scene = tmp_path / "s.json"
+    scene.write_text(json.dumps({"volume": {"path": "f_*.npy"}}), encoding="utf-8")
+    result = _run("animate", scene, "-o", tmp_path / "out", "--height", 9, "--step", 2)
+    assert result.exit_code == 0, result.output
+    assert Image.open(tmp_path / "out" / "frame_00001.png").size == (640, 9)

@@ -458,12 +458,12 @@ def test_stale_temporary_files_of_a_killed_encode_are_swept(tmp_path, sequence):
 
 
 def test_interrupted_mp4_encode_leaves_no_temporary_file(tmp_path, sequence, monkeypatch):
-    from incandescent import animation
+    from incandescent.animation import video
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(animation, "read_frames", interrupted)
+    monkeypatch.setattr(video, "read_frames", interrupted)
     result = _run("animate", sequence, "-o", tmp_path / "fire.mp4", *SMALL)
     assert result.exit_code == 130, result.output
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]

@@ -45,10 +45,11 @@ FLOORS: tuple[tuple[str, ...], ...] = (
     ("config", "animation", "api", "output"),
     # frames as Dask tasks (through api and config)
     ("cluster",),
-    # the fire solver, and rendering its frames (through animation, api and cluster)
+    # the fire solver (its settings files still read through config.load)
     ("simulation",),
-    # entry points: the benchmark, the typer app, the package's own namespace
-    ("benchmark", "cli", "__init__"),
+    # entry points: the benchmark, a fire's frames rendered (simulation over animation and
+    # cluster), the typer app, the package's own namespace
+    ("benchmark", "fire_video", "cli", "__init__"),
 )
 
 

@@ -75,14 +75,14 @@ def test_render_video_renders_volumes_the_read_ahead_prepared(tmp_path, monkeypa
 
     volumes = [scenes.soot_plume(12) for _ in range(3)]
     seen: list[tuple[bool, str]] = []
-    real_render = animation.render
+    real_render = animation.render.render  # the module animation/render.py
 
     def spy(volume, camera, *args, **kwargs):
         prepared = {("macrocells", LEAF, "absorption"), "max_temperature_K", "two_valued_kappa"}
         seen.append((prepared <= volume._cache.keys(), threading.current_thread().name))
         return real_render(volume, camera, *args, **kwargs)
 
-    monkeypatch.setattr(animation, "render", spy)
+    monkeypatch.setattr(animation.render, "render", spy)
     camera = default_camera(volumes[0].bounds_m)
     settings, display = RenderSettings(width=8, height=8), DisplaySettings(exposure_ev=0.0)
     animation.render_video(

@@ -380,12 +380,12 @@ def test_animate_interrupted_just_after_a_frame_is_committed_resumes_without_ove
 ):
     """The window the issue hit: a frame on disk whose run died before it wrote the manifest
     again. The entry is written before the frame, so the rerun reuses both finished frames."""
-    from incandescent import animation
+    from incandescent.animation import sequence
 
     pattern, out, real, written = (
         _sequence(tmp_path, n=4),
         tmp_path / "out",
-        animation.write_png,
+        sequence.write_png,
         [],
     )
 
@@ -395,10 +395,10 @@ def test_animate_interrupted_just_after_a_frame_is_committed_resumes_without_ove
         if len(written) == 2:
             raise KeyboardInterrupt  # as if Ctrl-C came between this commit and anything after
 
-    monkeypatch.setattr(animation, "write_png", commits_then_dies)
+    monkeypatch.setattr(sequence, "write_png", commits_then_dies)
     code, output = _animate(pattern, "-o", out, *ARGS)
     assert code == 130 and "interrupted" in output, output
     assert sorted(p.name for p in out.glob("frame_*.png")) == [p.name for p in written]
-    monkeypatch.setattr(animation, "write_png", real)
+    monkeypatch.setattr(sequence, "write_png", real)
     code, output = _animate(pattern, "-o", out, *ARGS)
     assert code == 0 and "2 rendered, 2 reused" in " ".join(output.split()), output

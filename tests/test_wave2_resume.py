@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from incandescent import animation
-from incandescent.animation import frame_path, render_sequence
+from incandescent.animation import frame_path, render_sequence, sequence
 
 
 class _Volume:
@@ -29,7 +29,7 @@ def _key(i: int) -> str:
 
 
 def test_a_run_interrupted_as_a_frame_is_committed_resumes_without_overwrite(tmp_path, monkeypatch):
-    folder, real, written = tmp_path / "seq", animation.write_png, []
+    folder, real, written = tmp_path / "seq", sequence.write_png, []
 
     def dies_on_the_third(path, *args, **kwargs):
         if len(written) == 2:
@@ -37,10 +37,10 @@ def test_a_run_interrupted_as_a_frame_is_committed_resumes_without_overwrite(tmp
         written.append(path)
         return real(path, *args, **kwargs)
 
-    monkeypatch.setattr(animation, "write_png", dies_on_the_third)
+    monkeypatch.setattr(sequence, "write_png", dies_on_the_third)
     with pytest.raises(KeyboardInterrupt):
         render_sequence(_volumes(4), 4, folder, _grey, False, frame_key=_key)
-    monkeypatch.setattr(animation, "write_png", real)
+    monkeypatch.setattr(sequence, "write_png", real)
     calls = []
     render_sequence(_volumes(4), 4, folder, lambda v: calls.append(v) or _grey(v), False, _key)
     assert [v.max_temperature_K for v in calls] == [2.0, 3.0]  # frames 0 and 1 reused
@@ -52,7 +52,7 @@ def test_frames_workers_wrote_before_the_client_died_are_reused(tmp_path):
 
     def client_dies(todo, on_done):
         for i in todo[:2]:
-            animation.write_png(frame_path(folder, i), _grey(_Volume(float(i))))
+            sequence.write_png(frame_path(folder, i), _grey(_Volume(float(i))))
         raise KeyboardInterrupt
 
     folder.mkdir()
@@ -68,7 +68,7 @@ def test_an_old_frame_is_removed_before_its_new_key_is_recorded(tmp_path, monkey
     folder = tmp_path / "seq"
     render_sequence(_volumes(2), 2, folder, _grey, False, frame_key=_key)
     monkeypatch.setattr(
-        animation, "write_png", lambda *a, **k: (_ for _ in ()).throw(OSError("disk"))
+        sequence, "write_png", lambda *a, **k: (_ for _ in ()).throw(OSError("disk"))
     )
     with pytest.raises(OSError, match="disk"):
         render_sequence(_volumes(2), 2, folder, _grey, False, lambda i: f"job:{i}-touched")

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING
+
 from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
 from incandescent.config.assemble import load_volume, volume_from_section
@@ -12,6 +16,9 @@ from incandescent.renderer import HDRImage, RenderSettings, render
 from incandescent.volume import Remap, Volume
 from incandescent.volume.sparse import SparseVolume
 
+if TYPE_CHECKING:
+    from incandescent.config import Scene
+
 __all__ = [
     "Camera",
     "DisplaySettings",
@@ -21,6 +28,13 @@ __all__ = [
     "RenderSettings",
     "Volume",
     "camera_from",
+    "check_image_outputs",
+    "demo_volume",
+    "grid_report",
+    "strict_json",
+    "image_stats",
+    "render_scene",
+    "start_backend",
     "load_volume",
     "volume_from_section",
     "render",
@@ -44,3 +58,173 @@ def camera_from(
     camera = default_camera(bounds, fov_deg=fov_deg)
     changes = {k: v for k, v in (("eye", eye), ("target", target)) if v is not None}
     return camera.replace(**changes) if changes else camera
+
+
+def check_image_outputs(
+    image: Path, stats: Path | None, overwrite: bool, inputs: list[Path] | None = None
+) -> None:
+    """Fail before rendering, not after: unsupported suffix, existing file without overwrite,
+    missing or read-only folder, a folder or device in the way, an output that is one of
+    ``inputs`` by any name (``io.atomic.check_output``), the stats file the image itself."""
+    from incandescent.io.atomic import check_output, same_file
+    from incandescent.io.formats import IMAGE_SUFFIXES, STATS_SUFFIXES
+
+    inputs = inputs or []
+    target = check_output(image, overwrite, IMAGE_SUFFIXES, "image", inputs=inputs)
+    if stats is not None:
+        written = check_output(stats, overwrite, STATS_SUFFIXES, "stats", inputs=inputs)
+        if same_file(written, target):
+            raise ValueError(f"--stats {stats} is the image output itself; give another file")
+
+
+def start_backend(path: Path, backend: str | None) -> str:
+    """The render backend resolved before the volume is read: a .vdb's OpenVDB worker starts (a
+    process of its own) while it loads here (Dr.Jit, ~80 ms), and a backend that cannot run is an
+    error before any reading."""
+    if path.suffix.lower() == ".vdb":
+        from incandescent.io import openvdb
+
+        openvdb.start()
+    from incandescent.renderer.backends import resolve_backend
+
+    return resolve_backend(backend)
+
+
+def render_scene(
+    scene: Scene, source: Path, limits: Limits | None = None, progress=None
+) -> tuple[HDRImage, list[Path]]:
+    """Render ``scene`` (read from ``source``: a scene or volume file) to its ``[output]`` path
+    and stats file, every output checked first; (the image, the files written)."""
+    from incandescent.io.atomic import all_or_nothing
+
+    out = scene.output
+    if out.path is None:
+        raise ValueError("no output: give -o OUT.exr|.png or [output] path in the scene file")
+    table = scene.emission.line_table
+    inputs = [source, scene.volume.path, *([] if table is None else [Path(table)])]
+    check_image_outputs(out.path, out.stats, out.overwrite, inputs)
+    backend = start_backend(scene.volume.path, out.backend)
+    settings = scene.render_settings()
+    blur_fps = settings.fps if settings.shutter is not None else None
+    volume = volume_from_section(scene.volume, scene.remap(), limits, settings.layout, blur_fps)
+    start = time.perf_counter()
+    camera = scene.camera_for(volume)  # type: ignore[arg-type]  # a SparseVolume has its bounds too
+    image = render(volume, camera, settings, backend, limits, progress,
+                   integrator=scene.render_integrator())  # fmt: skip
+    with all_or_nothing():  # the image and its stats, or neither
+        written = [save_image(image, out.path, scene.display_settings(), out.overwrite)]
+        if out.stats is not None:
+            stats = image_stats(image, start)
+            written.append(write_json(out.stats, stats, overwrite=out.overwrite))
+    return image, written
+
+
+def image_stats(image: HDRImage, start: float) -> dict:
+    """A render's statistics (``render --stats``); ``start``: when it began (perf_counter)."""
+    meta = image.metadata
+    return {
+        "samples": int(meta["samples"]),
+        "seconds": float(meta["seconds"]),
+        "total_seconds": time.perf_counter() - start,
+        "backend": meta["backend"],
+        "device": meta["device"],
+        "absorption": meta["absorption"],
+        "temperature": meta["temperature"],
+        "width": image.width,
+        "height": image.height,
+        "max_luminance_cd_m2": None if image.xyz is None else float(image.luminance.max()),
+    }
+
+
+#: Smallest ``--size`` of a demo scene.
+MIN_DEMO_SIZE = 8
+#: Peak bytes per voxel of building a demo scene (float64 NumPy fields, then the Volume):
+#: tracemalloc peaks measured 21 (sparse) to 57 (sphere), rounded up.
+DEMO_BYTES_PER_VOXEL = 64
+
+
+def demo_volume(name: str, size: int | None = None, limits: Limits | None = None):
+    """The built-in scene ``name`` (``scenes.SCENES``) built at ``size`` voxels (None: its
+    default), its memory checked first."""
+    from incandescent.scenes import SCENES
+
+    scene = SCENES[name]
+    if size is not None:
+        if size < MIN_DEMO_SIZE:
+            raise ValueError(f"--size must be >= {MIN_DEMO_SIZE} voxels; got {size}")
+        (limits or Limits()).check_memory(
+            float(size) ** 3 * DEMO_BYTES_PER_VOXEL, f"a {size}³ demo scene"
+        )
+    return scene.build(size or scene.default_size)
+
+
+def grid_report(path: Path, axes: str | None = None) -> tuple[list, list[str], dict[str, str]]:
+    """What ``incandescent info`` says about a volume file: its grids (``io.volumes.describe``),
+    the warnings (a file's; a grid named like temperature that cannot be kelvin; its notes; NaN
+    or infinite values) and grid name → what is not finite in it."""
+    import numpy as np
+
+    from incandescent.io.volumes import describe, file_warnings
+
+    with np.errstate(invalid="ignore", over="ignore"):  # NaN/inf: reported below, once
+        grids = describe(path, axes)
+        bad = _nonfinite_grids(path, axes, grids)
+    warnings = file_warnings(path, grids) + [w for g in grids for w in _grid_warnings(g, bad)]
+    return grids, warnings, bad
+
+
+def _grid_warnings(g, nonfinite: dict[str, str]) -> list[str]:
+    import numpy as np
+
+    from incandescent.volume.presets import kelvin_warning
+
+    warning = None
+    if g.value_max is not None and np.isfinite(g.value_max):
+        warning = kelvin_warning(g.name, np.array([g.value_max]))
+    bad = nonfinite.get(g.name)
+    bad = bad and f"{g.name}: {bad}; render refuses a grid it uses with NaN or infinite values"
+    return [t for t in (warning, g.note and f"{g.name}: {g.note}", bad) if t]
+
+
+def _nonfinite_grids(path: Path, axes: str | None, grids) -> dict[str, str]:
+    """Grid name → what is not finite in it (``_validate.nonfinite``, the rule render applies):
+    a dense file's grids are read again one at a time (its summary skips NaN); a .vdb's
+    summary (OpenVDB's range and sum over the active values) shows NaN and ±inf itself."""
+    import numpy as np
+
+    from incandescent import _validate
+    from incandescent.io.formats import VDB_SUFFIXES
+    from incandescent.io.volumes import open_grids
+
+    readable = [g for g in grids if g.readable]
+    if path.suffix.lower() in VDB_SUFFIXES:
+        stats = {g.name: (g.value_min, g.value_max, g.value_sum) for g in readable}
+        shown = lambda values: ", ".join("—" if v is None else f"{v:.4g}" for v in values)  # noqa: E731
+        return {
+            name: f"holds NaN or infinite values (min, max, sum: {shown(values)})"
+            for name, values in stats.items()
+            if any(v is not None and not np.isfinite(v) for v in values)
+        }
+    source, out = open_grids(path, axes), {}
+    for g in readable:
+        values = source.read([g.name]).arrays[g.name]
+        found = _validate.nonfinite(values) if np.issubdtype(values.dtype, np.number) else None
+        if found is not None:
+            out[g.name] = f"{found[0]:,} of {values.size:,} values are NaN or infinite (first "
+            out[g.name] += f"{found[1]})"
+    return out
+
+
+def strict_json(records: list[dict]) -> tuple[list[dict], list[str]]:
+    """``records`` with every NaN or ±inf number as null (JSON has no such numbers), and one
+    warning per grid naming the fields that became null."""
+    import math
+
+    out, warnings = [], []
+    for record in records:
+        nulled = {k: v for k, v in record.items() if isinstance(v, float) and not math.isfinite(v)}
+        out.append(record | dict.fromkeys(nulled))
+        if nulled:
+            shown = ", ".join(f"{k} {v}" for k, v in nulled.items())
+            warnings.append(f"{record['name']}: {shown} (not JSON numbers) shown as null")
+    return out, warnings

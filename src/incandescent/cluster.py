@@ -8,9 +8,9 @@ machine's memory), checked before anything starts. ``--scheduler tcp://HOST:PORT
 first (``tcp://HOST:PORT``, port 1–65535), then the scheduler must answer Dask's handshake and an
 ``identity`` request, and the client connect, all within ``CONNECT_TIMEOUT_S`` seconds in total
 (``$INCANDESCENT_SCHEDULER_TIMEOUT`` overrides it); errors name the address and where it came
-from. What travels to a worker is a
-:class:`FrameTask` — the frame's volume section (a path and how to read it), camera, render and
-display settings and the PNG's path — never a volume or an image: workers need the package
+from. What travels to a worker is a :class:`FrameTask` (made by ``animation.SequenceJob.task``)
+— the frame's volume section (a path and how to read it), camera, render and display settings
+and the PNG's path — never a volume or an image: workers need the package
 installed and the inputs and outputs on storage they share with the client. The client keeps
 the manifest (each frame's entry written before its PNG can exist, ``incandescent.animation``),
 so resume works whatever the number of workers. A task that dies with its worker is retried
@@ -37,11 +37,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from incandescent.camera import Camera
-    from incandescent.config import VolumeSection
-    from incandescent.imaging import DisplaySettings
-    from incandescent.renderer import Integrator, RenderSettings
-    from incandescent.volume import Remap
+    from incandescent.animation import AnimationSummary, FrameTask, SequenceJob
 
 #: Times a frame is tried again when its worker dies (SIGKILL, out of memory).
 RETRIES = 2
@@ -57,22 +53,14 @@ WORKERS_PER_CORE = 2
 WORKER_MEMORY_BYTES = 512 << 20
 
 
-@dataclass(frozen=True)
-class FrameTask:
-    """Everything a worker needs to make frame ``index`` (all small and picklable)."""
+def __getattr__(name: str) -> Any:
+    """``cluster.FrameTask``: the task type, defined beside the job that makes it (``animation``)
+    and imported only when asked for, so that a worker's preload of this module stays light."""
+    if name == "FrameTask":
+        from incandescent.animation.render import FrameTask
 
-    index: int
-    volume: VolumeSection  # the file and how to read it
-    remap: Remap
-    layout: str
-    blur_fps: float | None
-    camera: Camera
-    settings: RenderSettings
-    display: DisplaySettings
-    backend: str
-    png: Path
-    threads: int | None = None  # Dr.Jit threads on the worker (None: its default)
-    integrator: Integrator | None = None  # how light is transported (None: the default)
+        return FrameTask
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def render_task(task: FrameTask) -> tuple[int, tuple[int, ...]]:
@@ -433,3 +421,21 @@ def distributor(client, task_of: Callable[[int], FrameTask]):
         return run_tasks(client, [task_of(i) for i in todo], on_done)
 
     return distribute
+
+
+def render_job(
+    job: SequenceJob,
+    output: str | Path,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    **options: Any,
+) -> AnimationSummary:
+    """Render ``job`` to ``output`` (``SequenceJob.render``; ``options``: overwrite, progress,
+    fps) — its missing frames as tasks on the cluster of ``workers`` / ``scheduler``
+    (:func:`connect`), or in-process for neither."""
+    from incandescent.animation import plan_output
+
+    folder, _ = plan_output(Path(output), None, bool(options.get("overwrite")))
+    with connect(workers, scheduler) as (client, threads):
+        distribute = distributor(client, lambda i: job.task(i, folder, threads))
+        return job.render(output, distribute=distribute, **options)

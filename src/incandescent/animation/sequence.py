@@ -1,126 +1,34 @@
-"""Rendering sequences of volumes: resumable frames, one camera and one exposure, then video.
+"""Frame sequences: frame files, their manifest, the folder's lock, resume and read-ahead.
 
-Per-frame auto exposure makes a video flicker, so :func:`fixed_display` chooses one exposure from a
-key frame (rendered small) and every frame uses it. :func:`animate` renders a sequence into a
-folder of ``frame_00000.png, frame_00001.png, …`` — each PNG written atomically, so an
-interrupted run leaves only whole frames, and recorded in ``manifest.json`` under the key of
-what made it (:func:`frame_key`), so a rerun renders only the frames that are missing,
-unreadable or made otherwise — and then assembles the MP4/GIF (:mod:`incandescent.io.video`)
-through a temporary file moved into place. One run at a time holds a frame folder's lock.
+A sequence renders into a folder of ``frame_00000.png, frame_00001.png, …`` — each PNG written
+atomically, so an interrupted run leaves only whole frames, and recorded in ``manifest.json``
+under the key of what made it (:func:`frame_key`), so a rerun renders only the frames that are
+missing, unreadable or made otherwise. One run at a time holds a frame folder's lock. The next
+frame's volume is read and prepared on a helper thread while one renders (:func:`_ahead`);
+:func:`keep_frame_memory` keeps freed frame buffers in the C heap for the next frame (glibc).
 """
 
 from __future__ import annotations
 
-import math
 import os
 import threading
-import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from incandescent.budget import Limits
-from incandescent.camera import Camera, default_camera
-from incandescent.imaging import DisplaySettings, auto_exposure_scale
-from incandescent.imaging.pipeline import display_pixels
+from incandescent.camera import Camera
+from incandescent.imaging import DisplaySettings
 from incandescent.io.atomic import check_output, exclusive_lock
 from incandescent.io.formats import VIDEO_SUFFIXES
 from incandescent.io.images import write_png
 from incandescent.io.output import write_json
-from incandescent.io.video import _check_fps, _check_frame, read_frames, write_gif, write_mp4
-from incandescent.renderer import Integrator, RenderSettings, render
+from incandescent.io.video import _check_frame
+from incandescent.renderer import Integrator, RenderSettings
 from incandescent.volume import Volume
 from incandescent.volume.sparse import LEAF
-
-
-def fixed_display(
-    key_volume: Volume,
-    camera: Camera,
-    settings: RenderSettings,
-    backend: str | None = "auto",
-    base: DisplaySettings | None = None,
-    integrator: Integrator | None = None,
-) -> DisplaySettings:
-    """``base`` with auto exposure replaced by the fixed exposure that auto exposure picks for
-    ``key_volume`` (rendered at a quarter of the size); unchanged for a display-referred
-    integrator (no exposure) or when ``base`` already has auto exposure off."""
-    base = base or DisplaySettings()
-    if (integrator is not None and integrator.display_referred) or not base.auto_exposure:
-        return base
-    preview = settings.replace(
-        width=max(8, settings.width // 4), height=max(8, settings.height // 4)
-    )
-    image = render(key_volume, camera, preview, backend=backend, integrator=integrator)
-    ev = math.log2(auto_exposure_scale(image.luminance)) + base.exposure_ev
-    return DisplaySettings(
-        space=base.space,
-        white_balance=base.white_balance,
-        exposure_ev=ev,
-        auto_exposure=False,
-        tonemap=base.tonemap,
-        gamut=base.gamut,
-        bits=base.bits,
-    )
-
-
-def render_video(
-    volume_at: Callable[[int], Volume],
-    n_frames: int,
-    output: str | Path,
-    camera: Camera | Callable[[int], Camera],
-    settings: RenderSettings,
-    display: DisplaySettings,
-    backend: str | None = "auto",
-    overwrite: bool = False,
-    progress: bool = True,
-    fps: float = 25.0,
-    frame_input: Callable[[int], str] | None = None,
-    limits: Limits | None = None,
-    distribute: Distribute | None = None,
-    integrator: Integrator | None = None,
-) -> AnimationSummary:
-    """Render frames 0 … n_frames − 1 of ``volume_at`` to ``output`` (.mp4, .gif or a folder),
-    seen by ``camera`` — one camera, or a path ``frame ↦ Camera`` (``incandescent.camera.paths``)
-    — with ``integrator`` (default: emission–absorption).
-
-    ``frame_input(i)`` describes frame i's input without reading it (a file's path, size and
-    modification time; a scene's parameters). It goes, with the package version, the render and
-    display settings and the frame's camera, into the key each frame is recorded under
-    (:func:`frame_key`): a frame on disk is reused only when its key matches, and ``overwrite``
-    renders every frame again. The backend is not part of the key (backends agree to 1e-4).
-    ``limits`` bound each frame's render (:mod:`incandescent.budget`). ``distribute``: render
-    the missing frames on a cluster instead (``incandescent.cluster``; then ``volume_at`` is not
-    called for them).
-    """
-    camera_at = camera if callable(camera) else (lambda _: camera)
-    describe = frame_input or (lambda _: "")
-
-    def key(index: int) -> str:
-        return frame_key(describe(index), camera_at(index), settings, display, integrator)
-
-    def frame(index: int) -> Any:  # the volume travels with its camera to render_frame
-        return volume_at(index), camera_at(index)
-
-    def render_frame(item: Any) -> np.ndarray:
-        volume, cam = item
-        image = render(volume, cam, settings, backend, limits, integrator=integrator)
-        return display_pixels(image, display)
-
-    return animate(
-        frame,
-        n_frames,
-        output,
-        render_frame,
-        fps=fps,
-        overwrite=overwrite,
-        progress=progress,
-        frame_key=key,
-        distribute=distribute,
-    )
 
 
 def frame_key(
@@ -175,50 +83,6 @@ def expand_sequence(pattern: str) -> list[Path]:
 def key_frame(paths: Sequence[Path]) -> int:
     """The middle frame: a reasonable exposure key for a sequence we know nothing else about."""
     return len(paths) // 2
-
-
-# --- the 2011 paper's plate video ---------------------------------------------------------------
-
-
-def plate_camera(scene) -> Camera:
-    """A fixed three-quarter view of the whole plate box (the same for every frame)."""
-    return default_camera(scene.volume(scene.frame(0)).bounds_m, fov_deg=35.0)
-
-
-def render_plate_video(
-    output: str | Path,
-    settings: RenderSettings,
-    scene=None,
-    backend: str | None = "auto",
-    overwrite: bool = False,
-    progress: bool = True,
-    integrator: Integrator | None = None,
-) -> AnimationSummary:
-    """Render the plate sequence to ``output`` (.mp4, .gif, or a folder of PNG frames), resuming
-    from frames already in the frame folder. One exposure for all frames: auto exposure of the
-    frame where the gas holds the most heat (none for the paper's display-referred sums)."""
-    from incandescent.scenes.paper import PlateScene
-
-    scene = scene or PlateScene()
-    camera = plate_camera(scene)
-    frames = list(scene.frames())
-    hottest = max(range(len(frames)), key=lambda i: scene.excess_heat(frames[i]))
-    display = fixed_display(
-        scene.volume(frames[hottest]), camera, settings, backend, integrator=integrator
-    )
-    return render_video(
-        lambda i: scene.volume(frames[i]),
-        scene.n_frames,
-        output,
-        camera,
-        settings,
-        display,
-        backend=backend,
-        overwrite=overwrite,
-        progress=progress,
-        frame_input=lambda i: f"{scene!r} frame {i}",
-        integrator=integrator,
-    )
 
 
 # --- frame sequences: resumable, keyed, locked ------------------------------------------------
@@ -596,43 +460,6 @@ def render_sequence(
     return paths
 
 
-# --- animate --------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class AnimationSummary:
-    """What :func:`animate` wrote.
-
-    Attributes
-    ----------
-    frames: the PNG frame paths, in order. frame_dir: their folder.
-    video: the MP4/GIF written, or None when the output is the PNG folder itself.
-    rendered, reused: frames rendered by this call, and frames found already done.
-    fps: frame rate of the video. seconds: wall time of the call.
-    """
-
-    frames: tuple[Path, ...]
-    frame_dir: Path
-    video: Path | None
-    rendered: int
-    reused: int
-    fps: float
-    seconds: float
-
-    def __str__(self) -> str:
-        lines = [
-            f"frames: {len(self.frames)} PNG in {self.frame_dir}/ "
-            f"({self.rendered} rendered, {self.reused} reused) in {self.seconds:.1f} s"
-        ]
-        if self.video is not None:
-            size_kb = self.video.stat().st_size / 1024
-            lines.append(
-                f"video:  {self.video} ({len(self.frames)} frames at {self.fps:g} fps, "
-                f"{size_kb:.0f} KiB)"
-            )
-        return "\n".join(lines)
-
-
 def plan_output(
     output: Path, frame_dir: PathLike | None, overwrite: bool
 ) -> tuple[Path, str | None]:
@@ -664,71 +491,3 @@ def _probe_lock(folder: Path, output: Path) -> None:
     if (folder / LOCK_NAME).is_file():
         with exclusive_lock(folder / LOCK_NAME, str(output)):
             pass
-
-
-def _assemble(frames: list[Path], output: Path, suffix: str | None, fps: float, overwrite: bool):
-    """The video made from the frame PNGs, or None for a folder output."""
-    if suffix == ".mp4":
-        return write_mp4(read_frames(frames), output, fps=fps, overwrite=overwrite)
-    if suffix == ".gif":
-        return write_gif(read_frames(frames), output, fps=fps, overwrite=overwrite)
-    return None
-
-
-def assemble_video(frame_dir: PathLike, n_frames: int, output: PathLike, fps: float,
-                   overwrite: bool = False) -> Path | None:  # fmt: skip
-    """The video ``output`` (.mp4/.gif) made from frames 0 … n_frames − 1 already in
-    ``frame_dir`` (rendered elsewhere and recorded with :func:`record_frames`); the folder is
-    locked meanwhile. None for a folder output."""
-    output = Path(os.fspath(output))
-    folder, suffix = plan_output(output, frame_dir, overwrite)
-    frames = [frame_path(folder, i) for i in range(_check_count(n_frames))]
-    with exclusive_lock(folder / LOCK_NAME, str(output)):
-        return _assemble(frames, output, suffix, _check_fps(fps), overwrite)
-
-
-def animate(
-    volumes: VolumeSource,
-    n_frames: int,
-    output: PathLike,
-    render_frame: RenderFrame,
-    fps: float = 25.0,
-    frame_dir: PathLike | None = None,
-    overwrite: bool = False,
-    progress: bool = True,
-    frame_key: Callable[[int], str] | None = None,
-    distribute: Distribute | None = None,
-) -> AnimationSummary:
-    """Render a sequence to PNG frames, then assemble ``output`` from them.
-
-    ``output`` ending in ``.mp4`` (H.264, :func:`write_mp4`) or ``.gif`` (:func:`write_gif`) is
-    a video assembled from the frames in ``frame_dir`` (default: ``<output stem>_frames/`` next
-    to it), which stay there, so a rerun after an interruption renders only the missing frames.
-    Any other ``output`` (a folder, or a name without suffix) receives the PNG frames themselves.
-    An existing video is refused before any rendering unless ``overwrite``. Frames already in
-    the folder are reused when ``frame_key`` matches their manifest entry (see
-    :func:`render_sequence`); ``overwrite`` renders them all again. ``distribute`` renders the
-    missing frames elsewhere (``incandescent.cluster``). The frame folder is locked
-    for the whole call, so a second run on the same output fails at once. With ``progress``, a
-    progress bar and then the summary are printed to stderr. Returns the
-    :class:`AnimationSummary`.
-    """
-    start = time.perf_counter()
-    n_frames, fps = _check_count(n_frames), _check_fps(fps)
-    output = Path(os.fspath(output))
-    folder, suffix = plan_output(output, frame_dir, overwrite)
-    folder = _frame_folder(folder)
-    with exclusive_lock(folder / LOCK_NAME, str(output)):
-        frames, rendered = _render_missing(
-            volumes, n_frames, folder, render_frame, progress, frame_key, overwrite, distribute
-        )
-        video = _assemble(frames, output, suffix, fps, overwrite)
-    seconds = time.perf_counter() - start
-    summary = AnimationSummary(
-        tuple(frames), folder, video, rendered, n_frames - rendered, fps, seconds
-    )
-    if progress:
-        from rich.console import Console
-
-        Console(stderr=True).print(str(summary), highlight=False, markup=False)
-    return summary

@@ -1,0 +1,413 @@
+"""The ``incandescent`` command line: each command parses its flags (:mod:`.flags`), builds the
+scene or job and calls the Python API (``api``, ``animation``, ``cluster``, ``fire_video``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import logging
+import signal
+import time
+import warnings
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+
+from incandescent._version import __version__
+from incandescent.cli import flags
+from incandescent.cli.flags import (
+    DEMOS,
+    PLATE_SIZE,
+    RS,
+    Given,
+    command,
+    console,
+    fail,
+    integrator_name,
+    overrides,
+    say,
+)
+from incandescent.io.formats import SCENE_SUFFIXES
+from incandescent.scenes import SCENES
+
+app = typer.Typer(
+    help="Physically based volumetric rendering of incandescent gas (flames, explosions, plumes).",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # help texts show defaults in [brackets]: no markup in them
+    add_completion=False,
+)
+
+
+#: Exit status after Ctrl-C (SIGINT) or SIGTERM: 128 + SIGINT, as shells report it.
+EXIT_INTERRUPTED = 130
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning (e.g. a scene key of an earlier release) as one line, without source lines."""
+    say(f"warning: {message}")
+
+
+@contextlib.contextmanager
+def _guarded() -> Iterator[None]:
+    """Turn every expected failure of a command into one line and exit status 2, and Ctrl-C or
+    SIGTERM into exit status 130; outputs are atomic, so an interrupted command leaves none
+    half-written (an animation keeps its finished frames)."""
+    try:
+        yield
+    except typer.Exit:  # a RuntimeError subclass: already reported
+        raise
+    except KeyboardInterrupt:
+        say("interrupted: no output was left half-written")
+        raise typer.Exit(code=EXIT_INTERRUPTED) from None
+    except MemoryError:
+        raise fail("out of memory; make the input, image or step smaller") from None
+    except (ValueError, TypeError, OSError, RuntimeError) as error:
+        raise fail(str(error) or type(error).__name__) from None
+
+
+@contextlib.contextmanager
+def _render_progress() -> Iterator[Callable[[float], None]]:
+    """A transient progress bar on a terminal (nothing elsewhere, and rich's progress module is
+    then not imported: ~10 ms of each scripted render); yields ``report(fraction)``."""
+    if not console.is_terminal:
+        yield lambda fraction: None
+        return
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    columns = (TextColumn("rendering"), BarColumn(), TextColumn("{task.percentage:>3.0f} %"))
+    bar = Progress(*columns, TimeRemainingColumn(), console=console, transient=True)
+    task = bar.add_task("render", total=1.0)
+    with bar:
+        yield lambda fraction: bar.update(task, completed=fraction)
+
+
+def _terminate(signum, frame) -> None:
+    raise KeyboardInterrupt  # so that cleanups run and temporary files go
+
+
+def _scene(source: Path, overrides: dict):
+    """The scene a CLI call describes: a scene file with the flags over it, or a volume file."""
+    from incandescent.config import load_scene, scene_from_dict
+
+    if source.suffix.lower() in SCENE_SUFFIXES:
+        return load_scene(source, overrides)
+    return scene_from_dict({"volume": {"path": str(source)}}, None, overrides, source=str(source))
+
+
+def _limits(given: Given):
+    from incandescent.budget import DEFAULT_MAX_SAMPLES, GIB, Limits
+    from incandescent.io import openvdb
+
+    max_memory, max_samples = given.values.get("max_memory"), given.values.get("max_samples")
+    for flag, value in (("--max-memory", max_memory), ("--max-samples", max_samples)):
+        if value is not None and not value > 0:  # also refuses nan
+            raise ValueError(f"{flag} must be a number > 0; got {value}")
+    memory = None if max_memory is None else max_memory * GIB
+    openvdb.set_memory_budget(memory)  # the OpenVDB worker's reads are bounded too
+    return Limits(memory, DEFAULT_MAX_SAMPLES if max_samples is None else max_samples)
+
+
+def _summary(image, written: list[Path]) -> None:
+    meta = image.metadata
+    say(f"rendered {image.width}×{image.height} on {meta['backend']} ({meta['device']}): "
+        f"{meta['samples']:,} samples in {meta['seconds'] * 1e3:.1f} ms; "
+        f"absorption {meta['absorption']}")  # fmt: skip
+    for path in written:
+        say(f"  wrote {path}")
+
+
+# --- commands -------------------------------------------------------------------------------
+
+
+VERBOSE_HELP = "Log backend selection and timings."
+
+
+@app.callback()
+def main(
+    verbose: Annotated[bool, typer.Option("--verbose", "-v", help=VERBOSE_HELP)] = False,
+) -> None:
+    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, format="%(message)s")
+    warnings.showwarning = _show_warning
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
+        signal.signal(signal.SIGTERM, _terminate)
+
+
+@app.command()
+def version() -> None:
+    """Print the version."""
+    typer.echo(__version__)
+
+
+@app.command()
+@command(flags.RENDER)
+def render(o: Given) -> None:
+    """Render a volume file, or a scene file, to an image."""
+    from incandescent import api
+
+    with _guarded():
+        limits = _limits(o)
+        scene = _scene(o.source, overrides(o))
+        with _render_progress() as progress:
+            image, written = api.render_scene(scene, o.source, limits, progress)
+    _summary(image, written)
+
+
+@app.command()
+@command(flags.DEMO)
+def demo(o: Given) -> None:
+    """Render a built-in scene: plume, sparse, the paper's sphere, or the paper's plate video.
+
+    The plate video resumes: frames already in its frame folder, made with the same settings,
+    are not rendered again.
+    """
+    from incandescent import api
+    from incandescent.renderer.integrators import integrator_from_dict
+
+    if o.name not in DEMOS:
+        raise fail(f"unknown demo {o.name!r}; expected one of: {', '.join(DEMOS)}")
+    video = o.name == "plate"
+    output = o.output or Path(f"{o.name}.mp4" if video else f"{o.name}.png")
+    with _guarded():
+        limits = _limits(o)
+        width, height = PLATE_SIZE if video else (RS.width, RS.height)
+        settings = api.RenderSettings(width=o.width or width, height=o.height or height)
+        integrator = integrator_from_dict({"type": integrator_name(None, o.brightness)})
+        if video:
+            _demo_plate(output, settings, integrator, o)
+            return
+        api.check_image_outputs(output, None, o.overwrite)
+        with console.status(f"building the {o.name} scene…"):
+            volume = api.demo_volume(o.name, o.size, limits)
+        scene = SCENES[o.name]
+        with console.status(f"rendering {settings.width}×{settings.height}…"):
+            camera = scene.camera and scene.camera()
+            image = api.render(volume, camera, settings, o.backend, limits, integrator=integrator)
+        written = [api.save_image(image, output, scene.display, overwrite=o.overwrite)]
+    _summary(image, written)
+
+
+def _demo_plate(output: Path, settings, integrator, o: Given) -> None:
+    from incandescent.animation import render_plate_video
+    from incandescent.scenes.paper import PlateScene
+
+    if o.frames < 1:
+        raise ValueError(f"--frames must be >= 1; got {o.frames}")
+    start = time.perf_counter()
+    render_plate_video(output, settings, PlateScene(n_frames=o.frames), backend=o.backend,
+                       overwrite=o.overwrite, integrator=integrator)  # fmt: skip
+    say(f"plate: {o.frames} frames in {time.perf_counter() - start:.1f} s")
+
+
+@app.command()
+@command(flags.INFO)
+def info(o: Given) -> None:
+    """List a volume file's grids: type, active voxels and box, value range and sum, placement;
+    warn about grids named like temperature that cannot be kelvin, and name the preset a known
+    cache needs."""
+    from incandescent import api
+
+    path, axes = o.path, o.axes
+    with _guarded():
+        if path.suffix.lower() in SCENE_SUFFIXES:  # a scene: describe the volume file it names
+            spec = _scene(path, {}).volume
+            if not o.as_json:
+                say(f"{path}: a scene file; its volume is {spec.path}")
+            path, axes = spec.path, axes or spec.axes
+        grids, notes, bad = api.grid_report(path, axes)
+    if o.as_json:
+        records, nulls = api.strict_json(
+            [g.as_json() | {"finite": g.name not in bad} for g in grids]
+        )
+        report = {"path": str(path), "grids": records, "warnings": notes + nulls}
+        typer.echo(json.dumps(report, indent=2, allow_nan=False))
+        return
+    _info_table(path, grids)
+    for text in notes:
+        console.print(f"[yellow]note:[/] {escape(text)}", highlight=False, soft_wrap=True)
+
+
+def _info_table(path: Path, grids) -> None:
+    from rich.table import Table
+
+    table = Table(title=escape(str(path)))
+    for column in ("grid", "type", "active voxels", "shape (x, y, z)", "min", "max", "placement"):
+        table.add_column(column)
+    num = lambda v: "—" if v is None else f"{v:.4g}"  # noqa: E731
+    for g in grids:
+        active = "—" if g.active_voxels is None else f"{g.active_voxels:,}"
+        cells = (g.name, g.value_type, active, str(g.shape), num(g.value_min), num(g.value_max))
+        table.add_row(*(escape(c) for c in (*cells, g.placement)))
+    Console(width=180).print(table)
+
+
+@app.command()
+@command(flags.CONVERT)
+def convert(o: Given) -> None:
+    """Convert a volume to .npz or .vdb: the grids the renderer would use (temperature in K,
+    absorption in 1/m, emission scale, fractions), placed, y up; .vdb is written by OpenVDB."""
+    from incandescent import api
+    from incandescent.config.carry import carried
+    from incandescent.io.atomic import check_output
+    from incandescent.io.output import VOLUME_OUTPUT_SUFFIXES, save_volume
+
+    with _guarded():
+        limits = _limits(o)
+        check_output(o.output, o.overwrite, VOLUME_OUTPUT_SUFFIXES, "volume")
+        _check_vdb_writer(o.output)
+        scene = _scene(o.source, overrides(o))
+        check_output(o.output, o.overwrite, inputs=[o.source, scene.volume.path])
+        spec, velocity, left_out = carried(scene.volume, scene.emission.line_table, limits)
+        volume = api.volume_from_section(spec, scene.remap(), limits, "dense", velocity=velocity)
+        assert isinstance(volume, api.Volume)  # a dense read
+        written = save_volume(volume, o.output, overwrite=o.overwrite)
+    say(f"converted {o.source} ({volume.shape[0]}×{volume.shape[1]}×{volume.shape[2]} voxels, "
+        f"voxel {volume.voxel_size_m:g} m) to {written}")  # fmt: skip
+    for note in left_out:
+        say(f"left out: {note}")
+
+
+def _check_vdb_writer(output: Path) -> None:
+    """A ``.vdb`` output needs OpenVDB: say so before any work, naming the output."""
+    if output.suffix.lower() != ".vdb":
+        return
+    from incandescent.io import openvdb
+
+    problem = openvdb.problem()
+    if problem is not None:
+        raise ValueError(f"cannot write {output}: {problem}")
+
+
+@app.command()
+@command(flags.ANIMATE)
+def animate(o: Given) -> None:
+    """Render a sequence of volume files to MP4/GIF/PNG frames with one camera and one exposure.
+
+    The camera frames the first file's box; the exposure is auto exposure of the middle frame.
+    Re-running resumes: frames already in OUTPUT_frames/ that were made from the same files,
+    settings and version (its manifest.json says) are not rendered again; frames made otherwise
+    are refused unless --overwrite. One run at a time writes an output. With --workers or
+    --scheduler the frames are Dask tasks (each reads its file, renders and writes its PNG); the
+    exit status is then 100 + the number of frames that failed (at most 125).
+    """
+    from incandescent import animation, cluster
+
+    with _guarded():
+        limits = _limits(o)
+        cluster.resolve(o.workers, o.scheduler)  # the worker count and address, before any work
+        animation.plan_output(o.output, None, o.overwrite)  # before reading or rendering
+        scene, paths = _sequence_scene(o.source, overrides(o))
+        animation.keep_frame_memory()  # this process renders a sequence: frames reuse freed memory
+        job = animation.sequence_job(scene, paths, limits, o.orbit)
+        start = time.perf_counter()
+        try:
+            cluster.render_job(job, o.output, o.workers, o.scheduler, overwrite=o.overwrite,
+                               fps=scene.render.fps)  # fmt: skip
+        except animation.FramesFailed as failed:
+            for index, reason in sorted(failed.failures.items()):
+                say(f"frame {index} failed: {reason}")
+            say(f"error: {failed}")
+            raise typer.Exit(code=min(100 + len(failed.failures), 125)) from None
+    say(f"animate: {len(paths)} frames in {time.perf_counter() - start:.1f} s")
+
+
+def _sequence_scene(source: str, overrides: dict):
+    """(scene, frame files): a scene file whose ``[volume] path`` is a glob or #### pattern, or
+    the pattern itself (the scene of its first file)."""
+    from incandescent.animation import expand_sequence, video_scene
+    from incandescent.config import load_scene
+
+    if Path(source).suffix.lower() in SCENE_SUFFIXES:
+        scene = load_scene(Path(source), overrides)
+        return video_scene(scene), expand_sequence(str(scene.volume.path))
+    paths = expand_sequence(source)
+    return video_scene(_scene(paths[0], overrides)), paths
+
+
+@app.command()
+@command(flags.SIMULATE)
+def simulate(o: Given) -> None:
+    """Simulate a fire (Nguyen, Fedkiw & Jensen 2002) into frames the renderer reads.
+
+    Frames hold temperature (K), absorption (soot, 1/m), the blue core's CH and C2 fractions and
+    the velocity (m/s). A checkpoint after each frame lets an interrupted run resume: run the
+    same command again. --render renders the frames afterwards (fixed camera and exposure)."""
+    from incandescent import fire_video
+    from incandescent.renderer.backends import resolve_backend
+    from incandescent.simulation import settings as fire_settings
+
+    with _guarded():
+        limits = _limits(o)
+        changes = (
+            {} if o.settings_file is None else fire_settings.read_settings_file(o.settings_file)
+        )
+        named = None if o.settings_file is None else str(o.settings_file)
+        settings = fire_settings.from_changes(o.preset_name, changes, named)
+        if o.seed is not None:
+            settings = fire_settings.from_changes(
+                o.preset_name, changes | {"seed": o.seed}, "--seed"
+            )
+        view = o.render_to and fire_video.FireRender(o.render_to, o.width, o.height, o.exposure,
+                                                     o.workers, o.scheduler)  # fmt: skip
+        with _simulation_progress(o.frames) as on_frame:
+            fire_video.simulate_to(settings, o.resolution, o.frames, o.output, view,
+                                   resolve_backend(o.backend), "." + o.frame_format.lstrip("."),
+                                   o.overwrite, on_frame, limits)  # fmt: skip
+        if o.render_to is not None:
+            say(f"  rendered {o.render_to}")
+
+
+@contextlib.contextmanager
+def _simulation_progress(frames: int) -> Iterator[Callable]:
+    """A progress bar with steps per second and the time left; yields the per-frame callback."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    text = TextColumn("frame {task.completed:.0f}/{task.total:.0f} · {task.fields[rate]}")
+    bar = Progress(TextColumn("simulating"), BarColumn(), text, TimeRemainingColumn(),
+                   console=console, disable=not console.is_terminal)  # fmt: skip
+    task = bar.add_task("simulate", total=frames, rate="")
+    done = {"steps": 0, "seconds": 0.0}
+
+    def on_frame(report) -> None:
+        done["steps"] += len(report.steps)
+        done["seconds"] += report.seconds
+        last = report.steps[-1]
+        steps_s = done["steps"] / max(done["seconds"], 1e-9)
+        rate = f"{steps_s:.1f} steps/s, pressure {last.pressure_iterations} iterations"
+        bar.update(task, completed=report.frame, rate=rate)
+        if not console.is_terminal:
+            say(f"  frame {report.frame}: {len(report.steps)} steps in {report.seconds:.2f} s, "
+                f"pressure {last.pressure_iterations} iterations to "
+                f"{last.pressure_residual:.1e} -> {report.path}")  # fmt: skip
+
+    with bar:
+        yield on_frame
+
+
+@app.command()
+@command(flags.BENCH)
+def bench(o: Given) -> None:
+    """Benchmark the backends on named synthetic scenes (samples/s, ms/frame)."""
+    from incandescent import benchmark
+
+    if o.pixels is not None and o.resolution is not None and o.pixels != o.resolution:
+        raise fail("--pixels and its deprecated spelling --resolution disagree; give --pixels")
+    pixels = next((v for v in (o.pixels, o.resolution) if v is not None), 512)
+    try:
+        report = benchmark.run(o.scenes.split(","), o.size, pixels, o.repeat, o.reference,
+                               progress=None if o.as_json else console, cold=o.cold)  # fmt: skip
+    except (ValueError, RuntimeError) as error:
+        raise fail(str(error)) from None
+    if o.as_json:
+        typer.echo(json.dumps(report, indent=2))
+    else:
+        benchmark.print_table(report, Console())
+
+
+if __name__ == "__main__":  # pragma: no cover
+    app()

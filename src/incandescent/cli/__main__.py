@@ -1,0 +1,5 @@
+"""``python -m incandescent.cli``: the command line."""
+
+from incandescent.cli import app
+
+app()

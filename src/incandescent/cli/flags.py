@@ -1,0 +1,427 @@
+"""The command line's options, each declared once, and the scene overrides made from them.
+
+A :class:`Flag` is one option (or argument) — its parameter name, type, help, default and the
+scene key it sets (``"render.width"``: the flag → scene map; ``tests/test_cli.py`` checks every
+key against the schema) —, declared in one group per concern (volume, emitters, camera, film,
+motion blur, integrator, display, output, limits, cluster). A command is its groups
+(:func:`command`); a flag whose default or help differs in one command says so there
+(:meth:`Flag.but`). :func:`overrides` turns the flags given into the nested scene keys that
+``render`` and ``animate`` lay over a scene file. Defaults in [brackets] are read from the
+settings classes (``RenderSettings``, ``DisplaySettings``, ``Camera``).
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+from rich.console import Console
+from rich.markup import escape
+
+from incandescent.camera import Camera
+from incandescent.imaging import DisplaySettings
+from incandescent.renderer import RenderSettings
+from incandescent.renderer.backends import BACKENDS
+from incandescent.scenes import SCENES
+
+console = Console(stderr=True)
+
+
+def fail(message: str) -> typer.Exit:
+    """Print ``message`` as one error (no markup interpreted, no wrapping); exit status 2."""
+    console.print(f"[bold red]error:[/] {escape(message)}", highlight=False, soft_wrap=True)
+    return typer.Exit(code=2)
+
+
+def say(message: str) -> None:
+    """Print ``message`` verbatim (paths may hold [brackets]) without wrapping."""
+    console.print(message, highlight=False, markup=False, soft_wrap=True)
+
+
+# --- flag values that are not plain numbers or words --------------------------------------------
+
+
+def _vector(text: str, flag: str) -> tuple[float, ...]:
+    try:
+        values = tuple(float(p) for p in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3:
+        raise fail(f"{flag} must be three numbers X,Y,Z in m; got {text!r}")
+    return values
+
+
+def _pair(expected: str) -> Callable[[str, str], list[float]]:
+    """A parser of ``A:B`` → [A, B]; the error names the flag and ``expected``."""
+
+    def parse(text: str, flag: str) -> list[float]:
+        low, sep, high = text.partition(":")
+        try:
+            if not sep:
+                raise ValueError
+            return [float(low), float(high)]
+        except ValueError:
+            raise fail(f"{flag} must be {expected}; got {text!r}") from None
+
+    return parse
+
+
+def _species(text: str, flag: str) -> dict[str, float | str]:
+    """``Na=0.02,Li=lithium`` → {"Na": 0.02, "Li": "lithium"} (a number or a grid name)."""
+    out: dict[str, float | str] = {}
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        name, sep, value = item.partition("=")
+        if not sep or not name or not value:
+            raise fail(f"{flag} entries must be NAME=FRACTION or NAME=GRID; got {item!r}")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            out[name] = value
+    return out
+
+
+def integrator_name(name: str | None, brightness: str | None) -> str | None:
+    """``--integrator NAME``, or ``--brightness physical|paper`` read as one (None: neither)."""
+    from incandescent.config.legacy import BRIGHTNESS_INTEGRATORS
+
+    if brightness is not None and brightness not in BRIGHTNESS_INTEGRATORS:
+        raise fail(f"--brightness must be physical or paper; got {brightness!r}")
+    by_brightness = None if brightness is None else BRIGHTNESS_INTEGRATORS[brightness]
+    if name is not None and by_brightness is not None and name != by_brightness:
+        raise fail(f"--integrator {name} and --brightness {brightness} disagree; give one")
+    return name or by_brightness
+
+
+def _nonnegative(flag: str) -> Callable[[float | None], float | None]:
+    """A typer callback refusing a negative or non-finite value of ``flag`` as it is parsed."""
+
+    def check(value: float | None) -> float | None:
+        if value is not None and not 0.0 <= value < float("inf"):  # also refuses nan
+            raise fail(f"{flag} must be a finite number >= 0; got {value!r}")
+        return value
+
+    return check
+
+
+def _deprecated(old: str, new: str) -> Callable[[Any], Any]:
+    """A typer callback printing one warning line when the old spelling ``old`` is used."""
+
+    def warn(value: Any) -> Any:
+        if value is not None:
+            say(f"warning: {old} is deprecated and will be removed; use {new}")
+        return value
+
+    return warn
+
+
+# --- options: each declared once ------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Flag:
+    """One option (or argument): its parameter ``name``, type, help, default, and the scene key
+    it sets (``key``: "section.field…"; None: not a scene key), its text read by ``parse``."""
+
+    name: str
+    kind: Any
+    help: str
+    key: str | None = None
+    parse: Callable[[Any, str], Any] | None = None
+    default: Any = None
+    decls: tuple[str, ...] = ()
+    argument: bool = False
+    extra: dict = field(default_factory=dict)  # more typer.Option arguments
+
+    @property
+    def flag(self) -> str:
+        return self.decls[0].split("/")[0] if self.decls else "--" + self.name.replace("_", "-")
+
+    def but(self, **changes: Any) -> Flag:
+        """This flag with another default or help for one command (stated there, deliberately)."""
+        return replace(self, **changes)
+
+    def parameter(self) -> inspect.Parameter:
+        make = typer.Argument if self.argument else typer.Option
+        kind = self.kind if self.default is not None else self.kind | None
+        info = make(*self.decls, help=self.help, **self.extra)
+        keyword = inspect.Parameter.KEYWORD_ONLY
+        return inspect.Parameter(
+            self.name, keyword, default=self.default, annotation=Annotated[kind, info]
+        )
+
+
+RS, DS, CAMERA_FOV = RenderSettings, DisplaySettings, Camera.fov_deg
+BACKEND_CHOICES = " | ".join(("auto", *BACKENDS))
+
+# fmt: off
+AXES = Flag("axes", str, "Order of the stored array axes, e.g. zyx (files that do not say) "
+            "[xyz].", "volume.axes")
+VOLUME = (
+    Flag("absorption", float, "Constant absorption κ in 1/m [the file's absorption grid, else "
+         "1/L where T >= 500 K, L = the box's largest side].", "volume.absorption"),
+    Flag("voxel_size", float, "Voxel side in m [file's, else largest side 1 m].",
+         "volume.voxel_size_m"),
+    Flag("temperature_grid", str, "Name of the temperature grid [temperature, heat or temp].",
+         "volume.grids.temperature"),
+    Flag("preset", str, "Source preset: blender | houdini | embergen.", "volume.preset"),
+    Flag("up_axis", str, "The source's up axis: y | z [preset's, else y].", "volume.up_axis"),
+    AXES,
+    Flag("offset", float, "Temperature remap: T = (raw − offset)·scale [0].",
+         "volume.temperature.offset"),
+    Flag("scale", float, "Temperature remap scale, K per raw unit [1].",
+         "volume.temperature.scale"),
+    Flag("cutoff", float, "Voxels below this many K are vacuum [0].",
+         "volume.temperature.cutoff_K"),
+    Flag("temperature_range", str, "LOW:HIGH — map a normalised 0..1 field linearly to LOW..HIGH "
+         "K.", "volume.temperature.range", _pair("LOW:HIGH in K (e.g. 800:2200)")),
+)
+EMITTERS = (
+    Flag("species", str, "Emitting species, NAME=FRACTION or NAME=GRID, comma-separated (e.g. "
+         "Na=0.02,Li=lithium); lines from the shipped table or --line-table.", "volume.species",
+         _species),
+    Flag("line_table", Path, "Species line table (.csv/.toml) [shipped].", "emission.line_table",
+         lambda path, flag: str(path)),
+)
+CAMERA = (
+    Flag("eye", str, "Camera position X,Y,Z in m [three-quarter view].", "camera.eye", _vector),
+    Flag("target", str, "Point looked at, X,Y,Z in m [centre of the gas].", "camera.target",
+         _vector),
+    Flag("fov", float, f"Vertical field of view in degrees [{CAMERA_FOV:g}].", "camera.fov_deg"),
+)
+WIDTH = Flag("width", int, f"Image width in pixels [{RS.width}].", "render.width")
+HEIGHT = Flag("height", int, f"Image height in pixels [{RS.height}].", "render.height")
+FPS = Flag("fps", float, f"Frames per second, for the shutter [{RS.fps:g}].", "render.fps")
+FILM = (
+    WIDTH,
+    HEIGHT,
+    Flag("step", float, f"Ray-march step in voxels [{RS.step_voxels:g}].", "render.step_voxels"),
+    Flag("supersample", int, f"N for N×N rays per pixel [{RS.supersample}].",
+         "render.supersample"),
+    Flag("seed", int, f"Jitter seed [{RS.seed}].", "render.seed"),
+    Flag("layout", str, "Grid layout: auto | dense | sparse (occupied 8³ bricks only) "
+         f"[{RS.layout}].", "render.layout"),
+)
+BLUR = (
+    Flag("shutter", str, "Motion blur: shutter OPEN:CLOSE in frames around each frame's instant, "
+         "e.g. -0.25:0.25 (a 180° shutter) [off; needs a velocity grid].", "render.shutter",
+         _pair("OPEN:CLOSE in frames (e.g. -0.25:0.25)")),
+    Flag("velocity_grid", str, "Velocity grid for motion blur [velocity, vel, v].",
+         "volume.grids.velocity"),
+    Flag("velocity_units", str, "Velocity grid units: m/s | voxels/frame [m/s].",
+         "volume.velocity_units"),
+    Flag("velocity_scale", float, "Factor on the velocity grid (Blender's), >= 0 [1].",
+         "volume.velocity_scale", extra={"callback": _nonnegative("--velocity-scale")}),
+)
+BRIGHTNESS = Flag("brightness", str, "physical (absolute Planck, emission–absorption) | paper "
+                  "(the 2011 method).")
+INTEGRATOR = (
+    BRIGHTNESS,
+    Flag("integrator", str, "emission_absorption | paper2011 (the [integrator] type) "
+         "[emission_absorption].", "integrator.type"),
+    Flag("spectral_bins", int, "emission_absorption: N spectral bins for soot's κ_λ (0: grey) "
+         "[0].", "integrator.spectral_bins"),
+    Flag("sodium", float, "Constant sodium fraction 0..1 (species Na)."),
+    Flag("paper_exponent", float, "Paper mode: brightness ∝ T^exponent [1.5].",
+         "integrator.exponent"),
+)
+EXPOSURE = Flag("exposure", float, f"Exposure compensation in EV [{DS.exposure_ev:g}].",
+                "display.exposure_ev")
+DISPLAY = (
+    EXPOSURE.but(help=f"Exposure compensation in EV (PNG) [{DS.exposure_ev:g}]."),
+    Flag("auto_exposure", bool, "Auto exposure (PNG) [on].", "display.auto_exposure",
+         decls=("--auto-exposure/--no-auto-exposure",)),
+    Flag("tonemap", str, f"PNG tone map: clip | reinhard | filmic [{DS.tonemap}].",
+         "display.tonemap"),
+    Flag("space", str, "RGB space: srgb | rec2020 | display_p3 | acescg.", "render.space"),
+)
+BACKEND = Flag("backend", str, f"{BACKEND_CHOICES} [auto; env INCANDESCENT_BACKEND].",
+               "output.backend")
+OVERWRITE = Flag("overwrite", bool, "Replace existing output files.", "output.overwrite",
+                 decls=("--overwrite",))
+OUTPUT = (
+    Flag("output", Path, "Output image: .exr (HDR) or .png.", "output.path",
+         decls=("--output", "-o")),
+    Flag("stats", Path, "Write render statistics (JSON) to this file.", "output.stats"),
+    OVERWRITE,
+    BACKEND,
+)
+LIMITS = (
+    Flag("max_memory", float, "Refuse work estimated to need more memory, GiB [the memory "
+         "available now]."),
+    Flag("max_samples", float, "Refuse renders estimated to take more ray-march samples [1e11]."),
+)
+CLUSTER = (
+    Flag("workers", int, "Render on a local Dask cluster of N worker processes (at most 2 per core "
+         "and one per 512 MiB of memory) [in-process]."),
+    Flag("scheduler", str, "Render on an existing Dask cluster: tcp://HOST:PORT, which must answer "
+         "within 20 s ($INCANDESCENT_SCHEDULER_TIMEOUT) [$INCANDESCENT_SCHEDULER]."),
+)
+AS_JSON = Flag("as_json", bool, "Print one JSON object (for scripts).", default=False,
+               decls=("--json",))
+SIZE = Flag("size", int, "Grid resolution of the scene, voxels per side.")
+FRAMES = Flag("frames", int, "Number of frames.")
+# fmt: on
+
+
+class Given:
+    """The values a command was called with, by parameter name, and the flags they came from."""
+
+    def __init__(self, values: dict[str, Any], flags: tuple[Flag, ...]) -> None:
+        self.values, self.flags = values, flags
+
+    def __getattr__(self, name: str) -> Any:
+        try:
+            return self.values[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
+def command(*groups: Flag | tuple) -> Callable[[Callable[[Given], None]], Callable]:
+    """``body(given)`` as a function whose parameters are the flags of ``groups`` (for
+    ``app.command``, which reads its signature)."""
+    flags = tuple(_flat(groups))
+
+    def register(body: Callable[[Given], None]) -> Callable:
+        def command(**values: Any) -> None:
+            body(Given(values, flags))
+
+        command.__name__, command.__doc__ = body.__name__, body.__doc__
+        signature = inspect.Signature([f.parameter() for f in flags])
+        command.__signature__ = signature  # type: ignore[attr-defined]
+        return command
+
+    return register
+
+
+def _flat(groups: tuple) -> Iterator[Flag]:
+    for group in groups:
+        yield from ((group,) if isinstance(group, Flag) else _flat(group))
+
+
+def overrides(given: Given) -> dict:
+    """Nested scene keys for the flags that were given (the flag → scene map is the flags' keys);
+    ``--brightness`` is read as an integrator and ``--sodium`` as species Na."""
+    out: dict = {}
+    for flag in given.flags:
+        value = given.values.get(flag.name)
+        if flag.key is None or value is None:
+            continue
+        *sections, last = flag.key.split(".")
+        table = out
+        for name in sections:
+            table = table.setdefault(name, {})
+        table[last] = flag.parse(value, flag.flag) if flag.parse else value
+    if "brightness" in given.values:
+        kind = integrator_name(given.values.get("integrator"), given.values["brightness"])
+        out.setdefault("integrator", {})["type"] = kind
+    if given.values.get("sodium") is not None:
+        species = out.setdefault("volume", {}).setdefault("species", {})
+        if "Na" in species:
+            raise fail("--sodium is the fraction of species Na, also given in --species; give one")
+        species["Na"] = given.values["sodium"]
+    return out
+
+
+#: The built-in scenes (``incandescent.scenes.SCENES``) and the paper's plate video.
+DEMOS = (*SCENES, "plate")
+#: Image size of ``demo plate`` and of ``simulate --render`` (its frames are tall).
+PLATE_SIZE, FIRE_SIZE = (320, 240), (320, 480)
+
+# --- each command's flags, in the order its help lists them ---------------------------------
+
+# fmt: off
+SCENE_SOURCE = Flag("source", Path, "A volume file (.npy .npz .vdb .nvdb .h5 .hdf5 .nc) or a "
+                    "scene file (.toml, .json) whose values the options below override.",
+                    default=..., argument=True)
+RENDER = (SCENE_SOURCE, OUTPUT, FILM, VOLUME, EMITTERS, CAMERA, INTEGRATOR, DISPLAY, BLUR, FPS,
+          LIMITS)
+DEMO = (
+    Flag("name", str, f"Scene: {', '.join(DEMOS)}.", default="fire", argument=True),
+    Flag("output", Path, "Output: .png/.exr for images (default NAME.png); .mp4, .gif or a "
+         "folder of PNG frames for plate (default plate.mp4).", decls=("--output", "-o")),
+    SIZE.but(help="Grid resolution (plume/sparse/soot 128, sphere 64, 96)."),
+    WIDTH.but(help=f"Image width ({RS.width}; plate {PLATE_SIZE[0]})."),
+    HEIGHT.but(help=f"Image height ({RS.height}; plate {PLATE_SIZE[1]})."),
+    FRAMES.but(default=250, help="plate: number of frames."),
+    BRIGHTNESS.but(default="physical", help="physical | paper (the 2011 method)."),
+    BACKEND.but(default="auto", help=BACKEND_CHOICES + "."),
+    OVERWRITE.but(default=False, decls=(), help="Replace an existing output (plate: and render "
+                  "every frame again)."),
+    LIMITS,
+)
+INFO = (
+    Flag("path", Path, "A volume file: .npy .npz .vdb .nvdb .h5 .hdf5 .nc.", default=...,
+         argument=True),
+    AXES,
+    AS_JSON,
+)
+CONVERT = (
+    SCENE_SOURCE.but(help="A volume file (any readable format) or a scene file."),
+    Flag("output", Path, "Output: .npz (dense, placed) or .vdb (sparse).", default=...,
+         argument=True),
+    VOLUME,
+    OVERWRITE.but(key=None, default=False, help="Replace an existing output."),
+    LIMITS[0],
+)
+ANIMATE = (
+    Flag("source", str, "Volume files of a sequence — a glob ('cache/*.npz') or a #### frame "
+         "pattern — or a scene file (.toml, .json) whose [volume] path is one; the options "
+         "below override it.", default=..., argument=True),
+    Flag("output", Path, "Output .mp4, .gif, or a folder for PNG frames.", default=...,
+         decls=("--output", "-o")),
+    WIDTH.but(help="Frame width in pixels [640]."),
+    HEIGHT.but(help="Frame height in pixels [360]."),
+    FILM[2:], VOLUME, EMITTERS, CAMERA,
+    Flag("orbit", float, "Orbit the camera this many degrees about the vertical axis over the "
+         "video.", default=0.0),
+    INTEGRATOR,
+    EXPOSURE.but(help="Exposure compensation in EV over the fixed exposure [0]."),
+    DISPLAY[1:],
+    FPS.but(help="Frames per second of the video (and of the shutter) [25]."),
+    BACKEND,
+    OVERWRITE.but(key=None, default=False, decls=(), help="Replace an existing video and render "
+                  "every frame again."),
+    BLUR, CLUSTER, LIMITS,
+)
+SIMULATE = (
+    Flag("preset_name", str, "candle | torch | campfire | explosion.", default=...,
+         argument=True, extra={"metavar": "PRESET"}),
+    Flag("output", Path, "Folder for the frames (fire_####).", default=...,
+         decls=("--output", "-o")),
+    Flag("resolution", int, "Cells along the domain's longest side.", default=64),
+    FRAMES.but(default=48, help="Frames to simulate."),
+    Flag("settings_file", Path, "A .toml/.json of FireSettings fields over the preset's.",
+         decls=("--settings",)),
+    Flag("seed", int, "Seed of the sources' turbulence [preset's: 0]."),
+    Flag("frame_format", str, "Frame files: npz | vdb.", default="npz", decls=("--format",)),
+    BACKEND.but(default="auto", help=BACKEND_CHOICES + "."),
+    Flag("render_to", Path, "Also render the frames to this .mp4/.gif/folder.",
+         decls=("--render",)),
+    WIDTH.but(default=FIRE_SIZE[0], help="Rendered frame width."),
+    HEIGHT.but(default=FIRE_SIZE[1], help="Rendered frame height."),
+    CLUSTER[0].but(help="--render on a local Dask cluster of N workers."),
+    CLUSTER[1].but(help="--render on an existing Dask cluster."),
+    EXPOSURE.but(help="--render with this fixed exposure (EV) [auto: from the middle frame, "
+                 "after the simulation]; each frame is then rendered as soon as it is written "
+                 "(with --workers/--scheduler on the cluster, while the next is simulated)."),
+    OVERWRITE.but(default=False, decls=(), help="Start again even if OUTPUT holds another run."),
+    LIMITS[0],
+)
+BENCH = (
+    AS_JSON.but(help="Print the results as JSON."),
+    Flag("scenes", str, "Comma-separated scenes: plume, sparse, soot.",
+         default="plume,sparse,soot"),
+    SIZE.but(default=256, help="Grid resolution of the scenes."),
+    Flag("pixels", int, "Image width and height in pixels [512]."),
+    Flag("resolution", int, "Deprecated spelling of --pixels.",
+         extra={"hidden": True, "callback": _deprecated("bench --resolution", "--pixels")}),
+    Flag("repeat", int, "Timed repetitions per case (median reported).", default=5),
+    Flag("reference", bool, "Include the NumPy reference (at 1/4 resolution).", default=True),
+    Flag("cold", bool, "Also time frames that each render a new volume (cold).", default=False,
+         decls=("--cold",)),
+)
+# fmt: on
