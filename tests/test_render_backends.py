@@ -78,6 +78,10 @@ def test_two_valued_absorption_is_detected():
     graded = np.linspace(0.0, 1.0, 64).reshape(4, 4, 4)
     assert Volume.from_arrays(temp, absorption=graded).two_valued_absorption_per_m is None
     assert Volume.from_arrays(temp, absorption=0.0).two_valued_absorption_per_m is None
+    given = np.where(graded > 0.5, 2.5, 0.0)  # a grid, not made from T: found by the scan
+    assert Volume.from_arrays(temp.astype(np.float32), absorption=given).medium.kappa_known is False
+    assert Volume.from_arrays(temp, absorption=given).two_valued_absorption_per_m == 2.5
+    assert Volume.from_arrays(temp.astype(np.float32), given).two_valued_absorption_per_m == 2.5
     assert scenes.plume(16).two_valued_absorption_per_m is not None  # the bench scenes: one of each
     assert scenes.soot_plume(16).two_valued_absorption_per_m is None
     all_vacuum = Volume.from_arrays(temp, absorption=2.0, remap=Remap(cutoff_K=2000.0))

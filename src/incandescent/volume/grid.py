@@ -78,12 +78,15 @@ class MediumSummary:
     """What :meth:`Volume.from_arrays` knows of the medium by construction, so that the kernel's
     layout (``renderer.backends.medium``) needs no scan of κ.
 
+    kappa_known: κ was made from T (the default absorption, or a constant), so the next two are
+        known; False: κ was given as a grid and is scanned when asked.
     two_valued_absorption_per_m: κ₀ when every voxel's κ is 0 or κ₀ (None: κ is graded, or 0).
     absorbing_from_K: the float32 T (K) from which a voxel absorbs — κ > 0 exactly where T ≥ it —
         when κ was made from T (the default absorption, or a constant); None when not known.
     max_temperature_K: the hottest voxel, K, as validation found it (None: not known).
     """
 
+    kappa_known: bool = False
     two_valued_absorption_per_m: float | None = None
     absorbing_from_K: float | None = None
     max_temperature_K: float | None = None
@@ -188,7 +191,7 @@ class Volume(Placed):
     def two_valued_absorption_per_m(self) -> float | None:
         """κ₀ when every voxel's κ is 0 or one value κ₀ > 0 (the default absorption; a constant κ
         with a cutoff), else None. The kernel then stores only T, its sign bit marking κ = 0."""
-        if self.medium is not None:
+        if self.medium is not None and self.medium.kappa_known:
             return self.medium.two_valued_absorption_per_m
         if "two_valued_kappa" not in self._cache:
             kappa, graded = self.absorption_per_m, threading.Event()
@@ -325,7 +328,7 @@ def _summary(kappa, kappa0, peak_K, absorption, remap: Remap) -> MediumSummary |
         return MediumSummary(max_temperature_K=hottest)
     min_K = max(remap.cutoff_K, DEFAULT_ABSORPTION_MIN_K if absorption is None else 0.0)
     two_valued = _made_peak(kappa, kappa0, peak_K, min_K)
-    return MediumSummary(two_valued, _made_threshold_K(absorption, remap), hottest)
+    return MediumSummary(True, two_valued, _made_threshold_K(absorption, remap), hottest)
 
 
 def _made_peak(kappa, kappa0: float, peak_K: float | None, min_K: float) -> float | None:
