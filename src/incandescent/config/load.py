@@ -20,8 +20,6 @@ from __future__ import annotations
 import difflib
 import json
 import os
-import re
-import tomllib
 import types
 import typing
 from collections.abc import Mapping
@@ -33,6 +31,7 @@ from pydantic import BaseModel, ValidationError
 from incandescent.config.legacy import LegacyKeyError, upgrade
 from incandescent.config.schema import Scene
 from incandescent.io.formats import SCENE_SUFFIXES
+from incandescent.io.textfiles import parse_json, parse_toml
 from incandescent.renderer.integrators import EmissionAbsorption
 
 __all__ = ["SUFFIXES", "SceneError", "load_scene", "merge_overrides", "scene_from_dict"]
@@ -148,26 +147,11 @@ def _read(path: Path) -> dict:
 
 
 def _parse_toml(text: str, path: Path) -> dict:
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        message = str(error)
-        where = re.search(r"\(at line (\d+), column (\d+)\)", message)
-        if where is None:
-            raise SceneError(f"{path}: TOML syntax error: {message}") from None
-        what = message[: where.start()].strip()
-        raise SceneError(
-            f"{path}: TOML syntax error at line {where[1]}, column {where[2]}: {what}"
-        ) from None
+    return parse_toml(text, path, SceneError)
 
 
 def _parse_json(text: str, path: Path) -> Any:
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as error:
-        raise SceneError(
-            f"{path}: JSON syntax error at line {error.lineno}, column {error.colno}: {error.msg}"
-        ) from None
+    return parse_json(text, path, SceneError)
 
 
 def _check_no_nul(text: str, where: str, shown: str) -> None:

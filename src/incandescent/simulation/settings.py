@@ -4,9 +4,10 @@ files), and the presets ``candle``, ``torch``, ``campfire`` and ``explosion``.
 Physical quantities are in SI units (m, s, K, m/s); positions of sources and obstacles are
 fractions of the domain (0..1 along x, y, z; y is up).
 
-Validation is strict, as for scene files (``config.load``): no bool or string is taken for a
-number, no list for a flag. Every way in — a preset with changes, a settings file — goes through
-:func:`from_changes` (JSON-mode validation, the scene loader's). Settings the solver cannot
+Validation is strict, as for scene files (``config.load``; the same parsers,
+``io.textfiles``): no bool or string is taken for a number, no list for a flag. Every way in —
+a preset with changes, a settings file — goes through :func:`from_changes` (JSON-mode
+validation, the scene loader's). Settings the solver cannot
 model are refused naming the key: a source centred outside the domain, ``t_max_K`` beyond the
 emission tables, and gas driven faster than sound (the solver is incompressible, a low-Mach
 model): buoyant rise over the domain's height, a nozzle's jet, the front's expansion.
@@ -259,7 +260,7 @@ def read_settings_file(path: str | Path) -> dict[str, Any]:
     """The table of FireSettings keys in a ``.toml``/``.json`` file; every problem (missing,
     not a file, not UTF-8, a syntax error, nesting too deep, not a table) is one ``ValueError``
     (or ``OSError``) naming the file and what was expected."""
-    from incandescent.config.load import _parse_json, _parse_toml
+    from incandescent.io.textfiles import parse_json, parse_toml
     from incandescent.io.volumes import check_input_file
 
     path = Path(path)
@@ -274,7 +275,7 @@ def read_settings_file(path: str | Path) -> dict[str, Any]:
         text = path.read_bytes().decode("utf-8")
     except UnicodeDecodeError as error:
         raise ValueError(f"{path}: not UTF-8 text ({error}); expected TOML or JSON") from None
-    parse = _parse_toml if path.suffix.lower() == ".toml" else _parse_json
+    parse = parse_toml if path.suffix.lower() == ".toml" else parse_json
     try:
         data = parse(text, path)
     except RecursionError:
