@@ -5,7 +5,7 @@
 The render path reads these files instead of importing colour-science (whose import pulls in
 matplotlib and pandas: ~0.9 s of every ``incandescent render``). Values are colour-science's
 tabulations of CIE 015:2018, 360–830 nm at 1 nm, written with full float64 precision, so they
-are bit-identical to what the package used before; ``tests/test_cmf_data.py`` checks that.
+are bit-identical to what the package used before; ``tests/spectra/test_cmf_data.py`` checks that.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ def main() -> None:
             f"Source: CIE 015:2018 via colour-science {colour.__version__} "
             f"(colour.MSDS_CMFS['{name}']),\n"
             "written with full float64 precision by scripts/cie_tables.py; "
-            "tests/test_cmf_data.py compares\nit with colour-science."
+            "tests/spectra/test_cmf_data.py compares\nit with colour-science."
         )
         rows = np.column_stack([wavelength[keep], values[keep]])
         target = Path(DATA) / f"cmf_{key}.csv"

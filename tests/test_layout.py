@@ -376,6 +376,6 @@ def test_design_sections_the_code_cites_exist():
     design = (ROOT / "docs" / "design" / "DESIGN.md").read_text()
     sections = set(re.findall(r"^## (\d+)\. ", design, flags=re.M))
     cited = set()
-    for path in list(PACKAGE.rglob("*.py")) + list((ROOT / "tests").glob("*.py")):
+    for path in list(PACKAGE.rglob("*.py")) + list((ROOT / "tests").rglob("*.py")):
         cited |= set(re.findall(r"DESIGN(?:\.md)? §(\d+)", path.read_text()))
     assert cited and cited <= sections, f"cited {sorted(cited)}, present {sorted(sections)}"

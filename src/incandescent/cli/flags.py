@@ -1,7 +1,7 @@
 """The command line's options, each declared once, and the scene overrides made from them.
 
 A :class:`Flag` is one option (or argument) — its parameter name, type, help, default and the
-scene key it sets (``"render.width"``: the flag → scene map; ``tests/test_cli.py`` checks every
+scene key it sets (``"render.width"``: the flag → scene map; ``tests/cli/test_cli.py`` checks every
 key against the schema) —, declared in one group per concern (volume, emitters, camera, film,
 motion blur, integrator, display, output, limits, cluster). A command is its groups
 (:func:`command`); a flag whose default or help differs in one command says so there

@@ -8,7 +8,7 @@ exp(−a·w) at low T (Wien, a = c2/λ ≤ 3.8e4 K) and like 1/w at high T (Rayl
 interpolation in w is accurate at both ends: the relative error is about (a·Δw)²/8 at low T and
 (Δw·T)²/4 at high T. The spacing is set so that (Δw·T_max)²/4 ≤ 1e-4, i.e. Δw ≤ 0.02 / T_max;
 we use 0.015 / T_max for margin, which gives about 1e-4 at most on
-[T_min, T_max] (measured in ``tests/test_lut.py``).
+[T_min, T_max] (measured in ``tests/spectra/test_lut.py``).
 Below T_min the renderer emits nothing (at 250 K the visible luminance is ~1e-37 cd/m²); above
 T_max the table is extended when built for a volume (:func:`build_emission_lut` ``t_max_K``).
 """

@@ -300,7 +300,7 @@ def test_animate_a_sequence_of_files_resumes(tmp_path):
 def test_render_scene_file_with_flag_overrides(tmp_path):
     import shutil
 
-    root = Path(__file__).resolve().parents[1] / "examples"
+    root = Path(__file__).resolve().parents[2] / "examples"
     for name in ("flame.toml", "flame.npz"):
         shutil.copy(root / name, tmp_path / name)
     result = _run("render", tmp_path / "flame.toml", "--width", 32, "--height", 48)
@@ -323,7 +323,7 @@ def test_scene_file_errors_name_the_key(tmp_path):
 
 def test_render_a_blender_fire_vdb_with_the_blender_preset(tmp_path):
     pytest.importorskip("tinyvdb")
-    cache = Path(__file__).resolve().parent / "data" / "blender_fire_0010.vdb"
+    cache = Path(__file__).resolve().parents[1] / "data" / "blender_fire_0010.vdb"
     out, stats = tmp_path / "fire.exr", tmp_path / "s.json"
     result = _run(
         "render",
@@ -363,7 +363,7 @@ def test_info_on_a_blender_vdb_names_unreadable_grids(monkeypatch):
     from incandescent.io import openvdb
 
     monkeypatch.setattr(openvdb, "interpreter", lambda: None)
-    cache = Path(__file__).resolve().parent / "data" / "blender_fire_0010.vdb"
+    cache = Path(__file__).resolve().parents[1] / "data" / "blender_fire_0010.vdb"
     text = " ".join(_run("info", cache).output.split())
     assert "flame" in text and "0.9844" in text
     assert "velocity: cannot be read: holds vec3s values" in text
@@ -374,7 +374,7 @@ def test_info_on_a_blender_vdb_through_openvdb_reads_every_grid():
 
     if openvdb.problem():
         pytest.skip(openvdb.problem())
-    cache = Path(__file__).resolve().parent / "data" / "blender_fire_0010.vdb"
+    cache = Path(__file__).resolve().parents[1] / "data" / "blender_fire_0010.vdb"
     result = _run("info", cache)
     text = " ".join(result.output.split())
     assert result.exit_code == 0 and "cannot be read" not in text
@@ -483,7 +483,7 @@ def test_a_backend_that_cannot_run_is_refused_before_the_volume_is_read(tmp_path
 
 def test_animate_lets_frames_reuse_freed_memory(tmp_path, monkeypatch):
     """`animate` renders a sequence in this process: it keeps freed frame buffers for the next
-    frame (``animation.keep_frame_memory``; what that does: tests/test_read_ahead.py)."""
+    frame (``animation.keep_frame_memory``; what that does: tests/animation/test_read_ahead.py)."""
     from incandescent import animation
     from incandescent.scenes import plume_temperature
 

@@ -17,7 +17,7 @@ from incandescent.imaging import DisplaySettings
 from incandescent.renderer import RenderSettings
 from incandescent.volume import Remap, Volume
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 SCENE_TOML = """
 [volume]

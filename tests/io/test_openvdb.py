@@ -28,7 +28,7 @@ from test_vdb import (  # noqa: E402, F401
     test_read_grids_share_one_box_filled_with_each_background,
 )
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).parents[1] / "data"
 BLENDER = DATA / "blender_fire_0010.vdb"
 
 

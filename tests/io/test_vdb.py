@@ -1,7 +1,7 @@
 """OpenVDB / NanoVDB input through tinyvdb (io.vdb): the reader used where OpenVDB itself is not
 installed, and always for NanoVDB. Reference files from libopenvdb, files written by tinyvdb, a
 real Blender Mantaflow fire cache, an error battery and a bounded fuzz of the reader. OpenVDB's
-own reader (the default where installed) is tested in tests/test_openvdb.py."""
+own reader (the default where installed) is tested in tests/io/test_openvdb.py."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ def _tinyvdb_only(monkeypatch):
     monkeypatch.setattr(openvdb, "interpreter", lambda: None)
 
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).parents[1] / "data"
 TWO_GRIDS = DATA / "openvdb_two_grids.vdb"
 BLENDER = DATA / "blender_fire_0010.vdb"
 VOXEL = 0.25
