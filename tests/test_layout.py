@@ -379,3 +379,36 @@ def test_design_sections_the_code_cites_exist():
     for path in list(PACKAGE.rglob("*.py")) + list((ROOT / "tests").rglob("*.py")):
         cited |= set(re.findall(r"DESIGN(?:\.md)? §(\d+)", path.read_text()))
     assert cited and cited <= sections, f"cited {sorted(cited)}, present {sorted(sections)}"
+
+
+def _floors_in(text: str) -> list[set[str]]:
+    """The floors a page lists: one bullet per floor, its module names in backticks."""
+    names = {name for floor in FLOORS for name in floor} - {"__init__"}
+    floors = []
+    for line in text.splitlines():
+        if line.startswith("- "):
+            floors.append({n for n in re.findall(r"`([a-z_]+)`", line) if n in names})
+        elif floors and line.startswith("  "):
+            floors[-1] |= {n for n in re.findall(r"`([a-z_]+)`", line) if n in names}
+        elif floors and not line.strip():
+            break
+    return floors
+
+
+def test_design_lists_the_floors_the_test_keeps():
+    """DESIGN.md §2 names the same floors, in the same order, as ``FLOORS``."""
+    design = (ROOT / "docs" / "design" / "DESIGN.md").read_text()
+    section = design.split("## 2. Layout", 1)[1].split("\n## ", 1)[0]
+    listed = _floors_in(section.split("Bottom\nto top:", 1)[1].lstrip("\n"))
+    assert listed == [set(floor) - {"__init__"} for floor in FLOORS]
+
+
+def test_architecture_names_the_floors_in_order():
+    """ARCHITECTURE.md's import rule names the floors in ``FLOORS``'s order (arrows between)."""
+    text = (ROOT / "ARCHITECTURE.md").read_text()
+    rule = text.split("Imports go down the floors", 1)[1].split("— or stay", 1)[0]
+    names = {name for floor in FLOORS for name in floor}
+    listed = [
+        {n for n in re.findall(r"`([a-z_]+)`", part) if n in names} for part in rule.split("→")
+    ]
+    assert listed == [set(floor) - {"__init__"} for floor in FLOORS]
