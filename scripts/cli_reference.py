@@ -2,8 +2,8 @@
 
 Walks the click command objects of ``incandescent.cli.app`` (``typer.main.get_command``): every
 command, its help, and each parameter's flags, type or choices, default and help. The markdown
-depends only on the app (no terminal width, no rich formatting), so ``tests/cli/test_cli_reference.py``
-can regenerate it and fail when docs/cli.md is stale.
+depends only on the app (no terminal width, no rich formatting), so
+``tests/cli/test_cli_reference.py`` can regenerate it and fail when docs/cli.md is stale.
 
     .venv/bin/python scripts/cli_reference.py            # rewrite docs/cli.md
     .venv/bin/python scripts/cli_reference.py --check    # exit 1 if docs/cli.md is stale

@@ -303,8 +303,8 @@ under its own auto exposure, dim but visible.
 - **Frames 104–105** are where the paper saw its triangular artifact (it appeared "once the
   leftmost column of voxels has cooled to below some threshold", frame 105; our simulation's
   x = 0 layer falls below 1000 K at frame 105 by construction). Our renders show no artifact in
-  either mode: `tests/scenes/test_paper_scenes.py` checks that every frame is mirror-symmetric and that
-  renders change smoothly from frame to frame around the cooling edge.
+  either mode: `tests/scenes/test_paper_scenes.py` checks that every frame is mirror-symmetric and
+  that renders change smoothly from frame to frame around the cooling edge.
 
 ## Blackbody colours under both models
 

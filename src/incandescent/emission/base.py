@@ -19,8 +19,8 @@ Transport runs in *bands* (:class:`Bands`): one grey band (the table mode, κ th
 wavelength) or N spectral bins with κ_b = κ·(λ_ref/λ_b)^α. Every model gives one 1/T table per
 band, all on the spacing of :mod:`incandescent.spectra.lut`, so one table position serves all.
 
-Adding a model is one subclass (see ``tests/emission/test_emission_models.py`` for a constant emitter):
-its tables, the grids it samples, its traced per-sample term and its float64 term.
+Adding a model is one subclass (see ``tests/emission/test_emission_models.py`` for a constant
+emitter): its tables, the grids it samples, its traced per-sample term and its float64 term.
 """
 
 from __future__ import annotations

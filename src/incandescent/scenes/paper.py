@@ -136,9 +136,9 @@ class PlateScene:
     first, cools below any threshold at some frame; the paper's triangular artifact appeared
     when "the leftmost column of voxels has cooled to below some threshold" (frame 105). With the
     defaults the hottest voxel of that layer falls below 1000 K first at frame 105 (we chose the
-    cooling rate to land on the paper's frame; ``tests/scenes/test_paper_scenes.py`` checks it); the plate
-    leaves the grid during frame 120 and the x = nx − 1 layer falls below 1000 K at frame 216.
-    "High speed": the plate outruns diffusion by far (Péclet number v·nx/D ≈ 770).
+    cooling rate to land on the paper's frame; ``tests/scenes/test_paper_scenes.py`` checks it);
+    the plate leaves the grid during frame 120 and the x = nx − 1 layer falls below 1000 K at
+    frame 216. "High speed": the plate outruns diffusion by far (Péclet number v·nx/D ≈ 770).
 
     The state is float32 with one ghost layer and is updated in place: the default 250 frames of
     96×64×64 voxels take under a second.

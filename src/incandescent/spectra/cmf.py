@@ -2,8 +2,8 @@
 
 The CIE 1931 2° and CIE 1964 10° standard observers of CIE 015:2018, shipped as package data
 (``spectra/data/cmf_*.csv``, written from colour-science's tabulations by
-``scripts/cie_tables.py`` and compared with colour-science in ``tests/spectra/test_cmf_data.py``), so the
-render path never imports colour-science (its import pulls in matplotlib and pandas: ~0.9 s).
+``scripts/cie_tables.py`` and compared with colour-science in ``tests/spectra/test_cmf_data.py``),
+so the render path never imports colour-science (its import pulls in matplotlib and pandas: ~0.9 s).
 """
 
 from __future__ import annotations
