@@ -194,18 +194,18 @@ def test_a_flat_front_moves_into_the_fuel_at_the_flame_speed(backend):
     _, y, _ = _cells(solver)
     y0 = 24.0
     state = solver.initial_state()
-    state = replace(state, phi=_field(solver, y - y0))
+    state = replace(state, phi=solver.cell_field(_field(solver, y - y0)))
     dt, steps = 0.01, 40
     for _ in range(steps):
         state, _ = solver.step(state, dt)
-    phi = solver.ops.numpy(state.phi).reshape(solver.shape)[
+    phi = solver.ops.numpy(state.phi.values).reshape(solver.shape)[
         solver.shape[0] // 2, :, solver.shape[2] // 2
     ]
     column = np.arange(solver.shape[1]) + 0.5
     front = np.interp(0.0, phi, column)  # φ rises with y
     moved_m = (y0 - front) * solver.h
     assert moved_m == pytest.approx(0.2 * dt * steps, rel=1e-4)
-    v = solver.ops.numpy(state.velocity[1]).reshape(solver.face[1].shape)
+    v = solver.ops.numpy(state.velocity[1].values).reshape(solver.face[1].shape)
     top = v[solver.shape[0] // 2, -1, solver.shape[2] // 2] * solver.h
     assert top == pytest.approx((5.0 - 1.0) * 0.2, rel=1e-4)  # the jump: (ρ_f/ρ_h − 1)·S
 
@@ -215,7 +215,7 @@ def test_temperature_stays_between_air_and_the_flame_maximum():
     state = solver.initial_state()
     for _ in range(12):
         state, _ = solver.step(state, 1 / 48)
-    t = solver.ops.numpy(state.temperature)
+    t = solver.ops.numpy(state.temperature.values)
     s = solver.settings
     assert t.min() >= s.t_air_K - 1e-6 and t.max() <= s.t_max_K + 1e-6
     assert t.max() > s.t_ignition_K  # it burns
@@ -225,10 +225,10 @@ def test_a_hot_blob_rises():
     solver = _solver(resolution=24, buoyancy_m_s2_K=0.01, cooling_K_s=0.0)
     x, y, z = _cells(solver)
     hot = 300.0 + 900.0 * np.exp(-((x - 12) ** 2 + (y - 8) ** 2 + (z - 12) ** 2) / (2 * 2.0**2))
-    state = replace(solver.initial_state(), temperature=_field(solver, hot))
+    state = replace(solver.initial_state(), temperature=solver.cell_field(_field(solver, hot)))
 
     def height(state):
-        excess = solver.ops.numpy(state.temperature).reshape(solver.shape) - 300.0
+        excess = solver.ops.numpy(state.temperature.values).reshape(solver.shape) - 300.0
         return float((excess * y).sum() / excess.sum())
 
     heights = [height(state)]
@@ -245,7 +245,7 @@ def test_every_preset_runs_200_steps_at_32_without_nan(name):
     for _ in range(200):
         state, report = solver.step(state, 1 / 96)
     for field in (*state.velocity, state.temperature, state.soot, state.phi):
-        assert np.isfinite(solver.ops.numpy(field)).all()
+        assert np.isfinite(solver.ops.numpy(field.values)).all()
     assert report.pressure_residual <= solver.settings.pressure_tolerance
 
 
@@ -255,7 +255,7 @@ def test_a_seed_makes_a_run_reproducible(jit_backend):
         state = solver.initial_state()
         for _ in range(3):
             state, _ = solver.step(state, 1 / 48)
-        return solver.ops.numpy(state.velocity[1])
+        return solver.ops.numpy(state.velocity[1].values)
 
     np.testing.assert_array_equal(run(3), run(3))
     assert not np.array_equal(run(3), run(4))
@@ -272,11 +272,12 @@ def test_the_jit_backends_step_as_the_float64_reference(jit_backend):
         states[backend] = (solver, state)
     (ref_solver, ref), (jit_solver, jit) = states["reference"], states[jit_backend]
     for name in ("temperature", "soot", "phi"):
-        a = jit_solver.ops.numpy(getattr(jit, name))
-        b = ref_solver.ops.numpy(getattr(ref, name))
+        a = jit_solver.ops.numpy(getattr(jit, name).values)
+        b = ref_solver.ops.numpy(getattr(ref, name).values)
         np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-5 * np.abs(b).max())
     for a in range(3):
-        u, v = jit_solver.ops.numpy(jit.velocity[a]), ref_solver.ops.numpy(ref.velocity[a])
+        u = jit_solver.ops.numpy(jit.velocity[a].values)
+        v = ref_solver.ops.numpy(ref.velocity[a].values)
         np.testing.assert_allclose(u, v, rtol=1e-5, atol=1e-5 * np.abs(v).max())
 
 
@@ -365,3 +366,16 @@ def test_a_grid_bigger_than_memory_is_refused_before_any_work(tmp_path):
     output = " ".join(result.output.split())
     assert result.exit_code == 2 and "simulating a 512×512×512 grid needs about 26.0 GiB" in output
     assert not (tmp_path / "big").exists()
+
+
+def test_a_state_holds_typed_fields_on_one_grid():
+    """FireState refuses raw arrays and a cell field on another layout (values and layouts travel
+    together; a checkpoint's flat arrays are wrapped by ``read_checkpoint``)."""
+    solver = FireSolver(preset("candle"), 8, "reference")
+    state = solver.initial_state()
+    with pytest.raises(TypeError, match="velocity must be a StaggeredField"):
+        replace(state, velocity=[c.values for c in state.velocity])
+    with pytest.raises(ValueError, match="phi must be a Field on the cells"):
+        replace(state, phi=state.phi.values)
+    with pytest.raises(ValueError, match="soot must be a Field on the cells"):
+        replace(state, soot=state.velocity[0])

@@ -19,11 +19,12 @@ def _cooled(backend: str, dt: float, t_end: float = 0.5) -> tuple[FireSolver, np
     solver = FireSolver(FireSettings(domain_m=(1.0, 1.0, 1.0), **QUIET), 8, backend)
     s = solver.settings
     state = replace(
-        solver.initial_state(), temperature=solver.ops.full(solver.cell.size, s.t_max_K)
+        solver.initial_state(),
+        temperature=solver.cell_field(solver.ops.full(solver.cell.size, s.t_max_K)),
     )
     for _ in range(round(t_end / dt)):
         state, _ = solver.step(state, dt)
-    return solver, solver.ops.numpy(state.temperature)
+    return solver, solver.ops.numpy(state.temperature.values)
 
 
 def _cooling_closed_form(s: FireSettings, t: float, theta0: float = 1.0) -> float:
@@ -74,11 +75,12 @@ def _rise_ratio(backend: str, hot_region: str, steps: int = 5, dt: float = 0.01)
     else:
         hot, height = (x - c) ** 2 + (y - c) ** 2 + (z - c) ** 2 < (n / 6) ** 2, n // 2
     t0 = settings.t_air_K + excess * hot
-    state = replace(solver.initial_state(), temperature=solver.ops.array(t0.ravel()))
+    t0_field = solver.cell_field(solver.ops.array(t0.ravel()))
+    state = replace(solver.initial_state(), temperature=t0_field)
     ratios = []
     for k in range(1, steps + 1):
         state, _ = solver.step(state, dt)
-        w = solver.ops.numpy(state.velocity[1]).reshape(solver.face[1].shape)
+        w = solver.ops.numpy(state.velocity[1].values).reshape(solver.face[1].shape)
         ratios.append(w[n // 2, height, n // 2] * solver.h / (beta * excess * k * dt))
     return np.array(ratios)
 

@@ -24,14 +24,13 @@ def frame_fields(solver: FireSolver, state: FireState) -> dict[str, np.ndarray]:
     """What a frame holds, as NumPy (nx, ny, nz) grids: temperature_K, absorption_per_m (soot),
     CH and C2 (fractions), velocity_m_s (nx, ny, nz, 3); see the module docstring."""
     ops, s, shape = solver.ops, solver.settings, solver.shape
-    zone = reaction_zone(ops.numpy(state.phi).reshape(shape))
-    velocity = solver.velocity_field(state.velocity)
+    zone = reaction_zone(ops.numpy(state.phi.values).reshape(shape))
     centred = [
-        ops.numpy(face_mean(ops, c, a).values).reshape(shape) for a, c in enumerate(velocity)
+        ops.numpy(face_mean(ops, c, a).values).reshape(shape) for a, c in enumerate(state.velocity)
     ]
     return {
-        "temperature_K": ops.numpy(state.temperature).reshape(shape),
-        "absorption_per_m": ops.numpy(state.soot).reshape(shape) * s.soot_kappa_per_m,
+        "temperature_K": ops.numpy(state.temperature.values).reshape(shape),
+        "absorption_per_m": ops.numpy(state.soot.values).reshape(shape) * s.soot_kappa_per_m,
         "CH": zone * s.ch_fraction,
         "C2": zone * s.c2_fraction,
         "velocity_m_s": np.stack(centred, axis=-1) * solver.h,

@@ -84,7 +84,8 @@ def advance_frame(solver: FireSolver, state: FireState) -> tuple[FireState, list
     remaining, reports = 1.0 / s.fps, []
     floor = remaining / s.max_steps_per_frame
     while remaining > 1e-12:
-        speed = max(solver.ops.max_abs(v) for v in state.velocity) + s.flame_speed_m_s / solver.h
+        speed = max(solver.ops.max_abs(v.values) for v in state.velocity)
+        speed += s.flame_speed_m_s / solver.h
         dt = min(remaining, max(s.cfl / max(speed, 1e-9), floor))
         state, report = solver.step(state, dt)
         reports.append(report)
@@ -253,8 +254,8 @@ CHECKPOINT_SCALARS = ("identity", "format", "frame", "time_s", "steps")
 def _save_checkpoint(
     out_dir: Path, identity: str, suffix: str, frame: int, state: FireState, ops
 ) -> None:
-    arrays = {f"velocity_{a}": ops.numpy(state.velocity[a]) for a in range(3)}
-    arrays |= {name: ops.numpy(getattr(state, name)) for name in STATE_FIELDS}
+    arrays = {f"velocity_{a}": ops.numpy(state.velocity[a].values) for a in range(3)}
+    arrays |= {name: ops.numpy(getattr(state, name).values) for name in STATE_FIELDS}
 
     def write(tmp: Path) -> None:
         with open(tmp, "xb") as handle:
@@ -284,9 +285,12 @@ def read_checkpoint(
     steps = _counter(path, values, "steps", 2**62)
     time_s = _scalar_float(path, values, "time_s")
     ops = solver.ops
-    fields = {name: ops.array(_field(path, values, name, solver)) for name in STATE_FIELDS}
+    fields = {
+        name: solver.cell_field(ops.array(_field(path, values, name, solver)))
+        for name in STATE_FIELDS
+    }
     velocity = [ops.array(_field(path, values, f"velocity_{a}", solver)) for a in range(3)]
-    state = FireState(velocity, **fields, time_s=time_s, steps=steps)
+    state = FireState(solver.velocity_field(velocity), **fields, time_s=time_s, steps=steps)
     return frame, state
 
 

@@ -53,19 +53,30 @@ PHI_NEAR, FUEL_SIDE_CELLS = 4.0, 2.5
 
 @dataclass
 class FireState:
-    """The fields of one instant as the backend's flat arrays (what a checkpoint holds; typed
-    views: ``FireSolver.velocity_field``, ``FireSolver.cell_field``): the face velocities
-    (cells/s) along x, y, z, and at the cell centres φ (cells; < 0 in the fuel), T (K), soot
-    (unit density) and the last projection's pressure (cells²/s, the next solve's first guess);
-    the time (s) and the step count."""
+    """The fields of one instant, each a typed field (values and layout together; a checkpoint
+    holds their flat arrays): ``velocity`` on the faces (cells/s, component a on the faces
+    normal to axis a), and at the cell centres ``phi`` (cells; < 0 in the fuel),
+    ``temperature`` (K), ``soot`` (unit density) and ``pressure``, the last projection's
+    (cells²/s, the next solve's first guess); the time (s) and the step count. Every cell field
+    must lie on the cell centres of the velocity's grid (checked when the state is made)."""
 
-    velocity: Sequence[Array]
-    phi: Array
-    temperature: Array
-    soot: Array
-    pressure: Array
+    velocity: StaggeredField
+    phi: Field
+    temperature: Field
+    soot: Field
+    pressure: Field
     time_s: float = 0.0
     steps: int = 0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.velocity, StaggeredField):
+            raise TypeError(f"velocity must be a StaggeredField; got {type(self.velocity)}")
+        centres = self.velocity.cells
+        for name in ("phi", "temperature", "soot", "pressure"):
+            field = getattr(self, name)
+            if not isinstance(field, Field) or field.layout != centres:
+                where = field.layout if isinstance(field, Field) else type(field).__name__
+                raise ValueError(f"{name} must be a Field on the cells {centres}; got {where}")
 
 
 @dataclass(frozen=True)
@@ -190,11 +201,11 @@ class FireSolver:
         ops, n = self.ops, self.cell.size
         velocity = [ops.full(f.size, 0.0) for f in self.face]
         return FireState(
-            velocity,
-            ops.full(n, PHI_LIMIT),
-            ops.full(n, self.settings.t_air_K),
-            ops.full(n, 0.0),
-            ops.full(n, 0.0),
+            self.velocity_field(velocity),
+            self.cell_field(ops.full(n, PHI_LIMIT)),
+            self.cell_field(ops.full(n, self.settings.t_air_K)),
+            self.cell_field(ops.full(n, 0.0)),
+            self.cell_field(ops.full(n, 0.0)),
         )
 
     def velocity_field(self, velocity: Sequence[Array]) -> StaggeredField:
@@ -222,16 +233,15 @@ class FireSolver:
     # --- one step --------------------------------------------------------------------------
     def step(self, state: FireState, dt: float) -> tuple[FireState, StepReport]:
         ops, s = self.ops, self.settings
-        u, step = self.velocity_field(state.velocity), ops.scalar(dt)  # Δt a kernel input
+        u, step = state.velocity, ops.scalar(dt)  # Δt a kernel input
         velocity = [self._advect(u[a], self.face_points[a], u, step) for a in range(3)]
         temperature, soot = (
-            self._advect(self.cell_field(q), self.centres, u, step, ambient=air)
+            self._advect(q, self.centres, u, step, ambient=air)
             for q, air in ((state.temperature, s.t_air_K), (state.soot, 0.0))
         )
-        phi_field = self.cell_field(state.phi)
-        fuel_side = self._fuel_side(phi_field)
+        fuel_side = self._fuel_side(state.phi)
         phi = self._advect(
-            phi_field, self.centres, u, step, carried_by=fuel_side, ambient=PHI_LIMIT
+            state.phi, self.centres, u, step, carried_by=fuel_side, ambient=PHI_LIMIT
         )
         ops.evaluate(*velocity, phi, temperature, soot)
         phi, velocity = self._sources(phi, velocity, state)
@@ -239,16 +249,16 @@ class FireSolver:
         phi = ops.clip(phi + speed * step, -PHI_LIMIT, PHI_LIMIT)
         velocity = self._forces(velocity, temperature, soot, step)
         target = (s.density_ratio - 1.0) * speed * self._delta(phi)
-        velocity, p, report = self.project(velocity, target, state.pressure)
+        velocity, p, report = self.project(velocity, target, state.pressure.values)
         temperature, soot = self._heat(phi, temperature, soot, dt, step)
         ops.evaluate(*velocity, phi, temperature, soot, p)
         new = replace(
             state,
-            velocity=velocity,
-            phi=phi,
-            temperature=temperature,
-            soot=soot,
-            pressure=p,
+            velocity=self.velocity_field(velocity),
+            phi=state.phi.like(phi),
+            temperature=state.temperature.like(temperature),
+            soot=state.soot.like(soot),
+            pressure=state.pressure.like(p),
             time_s=state.time_s + dt,
             steps=state.steps + 1,
         )
