@@ -38,7 +38,9 @@ from incandescent.volume.validate import (
     _velocity,
     _voxel_size,
     _with_sodium,
+    check_phase_g,
     check_soot_alpha,
+    scattering_grid,
 )
 
 __all__ = [
@@ -113,6 +115,10 @@ class Volume(Placed):
     soot_alpha: the spectral law of the absorption, κ_λ = κ·(550 nm/λ)^α (1: the Rayleigh
         limit; 1.39: Hottel & Broughton 1932), used where transport runs in spectral bins; κ is
         the absorption at 550 nm.
+    scattering_per_m: (nx, ny, nz) float32 σ_s in 1/m, or None (the gas does not scatter): what
+        a scattering integrator (``renderer.integrators.single_scattering``) scatters; the
+        extinction is then κ + σ_s.
+    phase_g: the Henyey–Greenstein asymmetry g of the scattering, −1 < g < 1 (> 0 forward).
     medium: what construction already knows of κ and T (:class:`MediumSummary`), or None.
     origin_m: world position of the corner of voxel (0, 0, 0), m.
     voxel_size_m: side of a voxel, m.
@@ -130,10 +136,13 @@ class Volume(Placed):
     velocity_m_s: NDArray[np.float32] | None = None
     soot_alpha: float = 1.0
     medium: MediumSummary | None = field(default=None, repr=False)
+    scattering_per_m: NDArray[np.float32] | None = None
+    phase_g: float = 0.0
     _cache: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "soot_alpha", check_soot_alpha(self.soot_alpha))
+        object.__setattr__(self, "phase_g", check_phase_g(self.phase_g))
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -240,6 +249,19 @@ class Volume(Placed):
     def with_soot_alpha(self, alpha: float) -> Volume:
         """A copy whose absorption follows κ_λ = κ·(550 nm/λ)^α (see ``soot_alpha``)."""
         return self.replace(soot_alpha=alpha)
+
+    def with_scattering(
+        self,
+        scattering_per_m: ArrayLike | float | None = None,
+        albedo: float | None = None,
+        phase_g: float = 0.0,
+    ) -> Volume:
+        """A copy that scatters: σ_s in 1/m (a constant or a grid), or from the single-scattering
+        albedo α = σ_s/(σ_s + κ) as σ_s = α/(1 − α)·κ; Henyey–Greenstein asymmetry ``phase_g``."""
+        sigma = scattering_grid(
+            scattering_per_m, albedo, self.absorption_per_m, self.shape, "volume"
+        )
+        return self.replace(scattering_per_m=sigma, phase_g=phase_g)
 
     def macrocells(
         self,

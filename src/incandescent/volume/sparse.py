@@ -63,6 +63,8 @@ class SparseVolume(Placed):
     # What a dense Volume has that a sparse one does not carry (the sparse layout marches
     # blackbody emission from κ and T; species and emission-scale grids stay dense).
     emission_scale = None
+    scattering_per_m = None
+    phase_g = 0.0
     species: ClassVar[Mapping[str, NDArray[np.float32]]] = MappingProxyType({})
 
     @classmethod
@@ -113,7 +115,8 @@ class SparseVolume(Placed):
         leaves farther from any absorption is never read and is dropped. ``blur_rings``: motion
         blur reads the velocity in every macrocell that many leaves from an absorbing one, so
         those leaves (and one more ring, for the trilinear stencil) keep their velocity."""
-        extra = ["emission_scale"] if volume.emission_scale is not None else []
+        grids = ("emission_scale", "scattering_per_m")
+        extra = [n for n in grids if getattr(volume, n) is not None]
         if extra or volume.species:
             names = ", ".join(extra + [f"species {s}" for s in volume.species])
             raise ValueError(f"the sparse layout carries T and κ only; this volume has {names}")

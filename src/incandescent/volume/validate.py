@@ -216,6 +216,33 @@ def _velocity(value, shape, source: str) -> NDArray[np.float32] | None:
 SODIUM = "Na"
 
 
+def check_phase_g(g) -> float:
+    """The Henyey–Greenstein asymmetry g, a number with −1 < g < 1."""
+    if isinstance(g, bool) or not isinstance(g, (int, float, np.number)):
+        raise ValueError(f"phase_g must be a number in (-1, 1); got {g!r}")
+    if not np.isfinite(float(g)) or not -1.0 < g < 1.0:
+        raise ValueError(f"phase_g must be in (-1, 1) (|g| = 1 is a delta, not a phase function); "
+                         f"got {g!r}")  # fmt: skip
+    return float(g)
+
+
+def scattering_grid(value, albedo, kappa: NDArray, shape, source: str):
+    """σ_s (1/m) as a float32 grid from a constant or grid ``value``, or from the albedo α:
+    σ_s = α/(1 − α)·κ; None when neither is given. Both given, α outside [0, 1), σ_s < 0 or not
+    finite: one error naming the value."""
+    if value is not None and albedo is not None:
+        raise ValueError(f"{source}: give scattering (1/m) or albedo, not both")
+    if albedo is not None:
+        a = _validate.finite_scalar(albedo, "albedo")
+        if not 0.0 <= a < 1.0:
+            raise ValueError(f"{source}: albedo must be in [0, 1) (1: no absorption, give "
+                             f"scattering in 1/m instead); got {albedo!r}")  # fmt: skip
+        return _f32(np.asarray(kappa, np.float64) * (a / (1.0 - a)))
+    if value is None:
+        return None
+    return _optional_grid(value, shape, "scattering_per_m", source)
+
+
 def check_soot_alpha(alpha) -> float:
     """The soot exponent α of κ_λ = κ·(550 nm/λ)^α, a number in [0, 4]."""
     if isinstance(alpha, bool) or not isinstance(alpha, (int, float, np.number)):

@@ -42,6 +42,9 @@ class Kernel:
         #: motion blur: the velocity grid's x, y, z components (m/s), and each ray's time in s
         #: divided by the voxel side (set by ``trace``); None without blur
         self.velocity = self.time_voxels = None
+        #: the current sample's position and trilinear corners (set by ``sample``) and each ray's
+        #: unit direction (set by ``trace``): what an integrator may read beyond κ and T
+        self.position = self.at = self.ray_direction = None
         if inputs.ray_spec is not None and blurs(inputs.ray_spec, vol):
             self.velocity = self._velocity(vol)
         self.program = inputs.integrator.traced(self)
@@ -209,6 +212,7 @@ class Kernel:
             v = self.m.Array3f(*(self.trilinear(grid, c) for grid in self.velocity))
             c = self.corners(dr.fma(v, -self.time_voxels, p))
         kappa, temp = self.medium_at(c)
+        self.position, self.at = p, c  # the sample, for integrators that need more than κ, T
         sampled = [model.sample(self, bound, c) for model, bound in self.terms]
         interacts, emits = self.program.interacts(kappa, temp, sampled)
         tr, L = dr.if_stmt(

@@ -4,7 +4,9 @@ plugins from a dict (``type`` plus the class's parameters):
 
 * ``emission_absorption`` (:class:`EmissionAbsorption`): absolute radiance, grey or in spectral
   bins — the default;
-* ``paper2011`` (:class:`Paper2011`): the 2011 paper's display-referred sums.
+* ``paper2011`` (:class:`Paper2011`): the 2011 paper's display-referred sums;
+* ``single_scattering`` (:class:`SingleScattering`): emission–absorption plus directional lights
+  scattered once by the volume's σ_s.
 
 A new integrator is a subclass of :class:`Integrator` and one :func:`register` call; no backend
 changes.
@@ -18,6 +20,7 @@ from incandescent import _validate
 from incandescent.renderer.integrators.base import Integrator, Reference, Segment, Traced
 from incandescent.renderer.integrators.emission_absorption import EmissionAbsorption
 from incandescent.renderer.integrators.paper2011 import Paper2011
+from incandescent.renderer.integrators.single_scattering import SingleScattering
 
 __all__ = [
     "INTEGRATORS",
@@ -26,6 +29,7 @@ __all__ = [
     "Paper2011",
     "Reference",
     "Segment",
+    "SingleScattering",
     "Traced",
     "integrator_from_dict",
     "register",
@@ -35,6 +39,7 @@ __all__ = [
 INTEGRATORS: dict[str, type[Integrator]] = {
     EmissionAbsorption.name: EmissionAbsorption,
     Paper2011.name: Paper2011,
+    SingleScattering.name: SingleScattering,
 }
 
 

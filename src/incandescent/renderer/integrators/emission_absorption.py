@@ -267,6 +267,16 @@ class _Reference(Reference):
         tr[r] *= np.exp(-optical_depth)
         return emits
 
+    def emission_coefficient(self, kappa, temp, sampled, emits) -> NDArray:
+        """η = κ·S + Σ η_model per metre, exact, at the samples where ``emits``, (m_emits, 3)."""
+        inputs = self.inputs
+        hot, at = temp[emits], [[v[emits] for v in vs] for vs in sampled]
+        eta = kappa[emits, None] * self.emission_xyz(hot, at)
+        for model, values in zip(inputs.models, at, strict=True):
+            if model.kind == "coefficient":
+                eta = model.reference_add(eta, hot, values, inputs)
+        return eta
+
     def coefficient_step(self, segment: Segment, xyz, tr) -> NDArray[np.bool_]:
         """With coefficient models (lines): η = κ·S + Σ η_model per metre, and the segment adds
         Tr·η·(1 − e^{−κΔs})/κ (Tr·η·Δs where κ = 0)."""
@@ -279,11 +289,7 @@ class _Reference(Reference):
         if not emits.any():
             tr[r] *= np.exp(-kappa * ds_m)
             return emits
-        hot, at = temp[emits], [[v[emits] for v in vs] for vs in sampled]
-        eta = kappa[emits, None] * self.emission_xyz(hot, at)
-        for model, values in zip(inputs.models, at, strict=True):
-            if model.kind == "coefficient":
-                eta = model.reference_add(eta, hot, values, inputs)
+        eta = self.emission_coefficient(kappa, temp, sampled, emits)
         if vol.emission_scale is not None:
             eta *= trilinear(vol.emission_scale, p[emits])[:, None]
         x = kappa[emits] * ds_m[emits]

@@ -1,0 +1,65 @@
+"""Lights outside the gas: a directional light (the sun), in photometric units.
+
+A :class:`DirectionalLight` gives an illuminance E_v (lux) on a plane facing it, with the
+spectrum of a blackbody at ``temperature_K`` (5778 K: the sun's effective temperature) or a flat
+(equal-energy) one. In XYZ its irradiance is E_v·(x/y, 1, z/y) of that spectrum's chromaticity,
+so the light scattered once by σ_s with phase p (1/sr) is radiance in cd/m² (= lux/sr). This is
+pbrt-v4's `distant` light with its `scale` normalised to film-Y irradiance (pbrt divides by
+∫ȳL), so E_v = 1 lux renders pbrt's film Y.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from incandescent import _validate
+from incandescent.spectra import blackbody_xyz
+
+#: The sun's effective temperature, K (IAU 2015 nominal: 5772 K; 5778 K the common value).
+SUN_K = 5778.0
+
+
+@dataclass(frozen=True)
+class DirectionalLight:
+    """Light from a distant source in ``direction`` (toward the light, world axes; normalised),
+    ``illuminance_lux`` on a plane facing it, with a blackbody spectrum at ``temperature_K`` (None:
+    flat, equal-energy white)."""
+
+    direction: tuple[float, float, float]
+    illuminance_lux: float = 1.0
+    temperature_K: float | None = SUN_K
+
+    def __post_init__(self) -> None:
+        d = np.asarray(self.direction, dtype=np.float64)
+        if d.shape != (3,) or not np.isfinite(d).all() or np.linalg.norm(d) == 0:
+            raise ValueError(
+                "a directional light needs a direction X,Y,Z toward the light (not all 0); got "
+                f"{self.direction!r}"
+            )
+        object.__setattr__(self, "direction", tuple(float(v) for v in d / np.linalg.norm(d)))
+        lux = _validate.finite_scalar(self.illuminance_lux, "illuminance_lux")
+        if lux < 0:
+            raise ValueError(f"illuminance_lux must be >= 0; got {self.illuminance_lux!r}")
+        object.__setattr__(self, "illuminance_lux", float(lux))
+        if self.temperature_K is not None:
+            _validate.positive_scalar(self.temperature_K, "light temperature_K")
+
+    def irradiance_xyz(self) -> NDArray[np.float64]:
+        """XYZ irradiance on a plane facing the light, Y = ``illuminance_lux``."""
+        if self.temperature_K is None:
+            chroma = np.ones(3)  # equal-energy white: x = y = z = 1/3
+        else:
+            xyz = blackbody_xyz(float(self.temperature_K))
+            chroma = xyz / xyz[1]
+        return chroma * self.illuminance_lux
+
+
+def henyey_greenstein(cos_theta, g: float):
+    """The Henyey–Greenstein phase function (1/sr) at the scattering angle's cosine
+    (Henyey & Greenstein 1941, ApJ 93:70): p = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2}),
+    normalised over the sphere; g > 0 scatters forward."""
+    denom = 1.0 + g * g - 2.0 * g * cos_theta
+    return (1.0 - g * g) / (4.0 * np.pi * denom * denom**0.5)
