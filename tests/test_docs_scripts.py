@@ -61,3 +61,10 @@ def test_blackbody_strip_image(blackbody_docs):
     assert (chroma.max(axis=-1) > 100).all()
     assert absolute[0].max() == 0  # ...the absolute band is black at 800 K
     assert absolute[-1].min() > 150  # and bright at 12 000 K
+
+
+def test_scattering_gallery_renders_the_sunlit_smoke_brighter(tmp_path):
+    written = _load_script("scattering_gallery").main(["--out", str(tmp_path), "--quick"])
+    assert [p.name for p in written] == ["fire_dark.png", "fire_sunlit.png"]
+    dark, lit = (np.asarray(Image.open(p), dtype=float) for p in written)
+    assert lit.mean() > dark.mean()  # the smoke is lit by the sun

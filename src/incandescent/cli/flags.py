@@ -70,6 +70,26 @@ def _pair(expected: str) -> Callable[[str, str], list[float]]:
     return parse
 
 
+def _sun(text: str, flag: str) -> list[dict]:
+    """``X,Y,Z,LUX`` → one directional light toward (X, Y, Z) giving LUX on a plane facing it."""
+    try:
+        values = tuple(float(p) for p in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 4:
+        raise fail(f"{flag} must be X,Y,Z,LUX (direction toward the sun, illuminance in lux); "
+                   f"got {text!r}")  # fmt: skip
+    return [{"type": "directional", "direction": list(values[:3]), "illuminance_lux": values[3]}]
+
+
+def _number_or_name(text: str, flag: str) -> float | str:
+    """A number (a constant), else a grid's name."""
+    try:
+        return float(text)
+    except ValueError:
+        return text
+
+
 def _species(text: str, flag: str) -> dict[str, float | str]:
     """``Na=0.02,Li=lithium`` → {"Na": 0.02, "Li": "lithium"} (a number or a grid name)."""
     out: dict[str, float | str] = {}
@@ -185,6 +205,17 @@ EMITTERS = (
          _species),
     Flag("line_table", Path, "Species line table (.csv/.toml) [shipped].", "emission.line_table",
          lambda path, flag: str(path)),
+)
+LIGHTING = (
+    Flag("scattering", str, "Scattering σ_s: a constant in 1/m or a grid's name [none].",
+         "volume.scattering", _number_or_name),
+    Flag("albedo", float, "Scattering from the albedo σ_s/(σ_s + κ), 0 <= A < 1.",
+         "volume.albedo"),
+    Flag("phase_g", float, "Henyey–Greenstein asymmetry g, -1 < g < 1 (> 0 forward) [0].",
+         "volume.phase_g"),
+    Flag("sun", str, "A sun: X,Y,Z,LUX — direction toward it and illuminance in lux (a "
+         "single_scattering render).", "light", _sun),
+    Flag("sun_temperature", float, "The sun's blackbody temperature in K [5778]."),
 )
 CAMERA = (
     Flag("eye", str, "Camera position X,Y,Z in m [three-quarter view].", "camera.eye", _vector),
@@ -318,6 +349,10 @@ def overrides(given: Given) -> dict:
     if "brightness" in given.values:
         kind = integrator_name(given.values.get("integrator"), given.values["brightness"])
         out.setdefault("integrator", {})["type"] = kind
+    if given.values.get("sun_temperature") is not None:
+        if "light" not in out:
+            raise fail("--sun-temperature needs --sun X,Y,Z,LUX")
+        out["light"][0]["temperature_K"] = given.values["sun_temperature"]
     if given.values.get("sodium") is not None:
         species = out.setdefault("volume", {}).setdefault("species", {})
         if "Na" in species:
@@ -337,8 +372,8 @@ PLATE_SIZE, FIRE_SIZE = (320, 240), (320, 480)
 SCENE_SOURCE = Flag("source", Path, "A volume file (.npy .npz .vdb .nvdb .h5 .hdf5 .nc) or a "
                     "scene file (.toml, .json) whose values the options below override.",
                     default=..., argument=True)
-RENDER = (SCENE_SOURCE, OUTPUT, FILM, VOLUME, EMITTERS, CAMERA, INTEGRATOR, DISPLAY, BLUR, FPS,
-          LIMITS)
+RENDER = (SCENE_SOURCE, OUTPUT, FILM, VOLUME, EMITTERS, LIGHTING, CAMERA, INTEGRATOR, DISPLAY,
+          BLUR, FPS, LIMITS)
 DEMO = (
     Flag("name", str, f"Scene: {', '.join(DEMOS)}.", default="fire", argument=True),
     Flag("output", Path, "Output: .png/.exr for images (default NAME.png); .mp4, .gif or a "
@@ -375,7 +410,7 @@ ANIMATE = (
          decls=("--output", "-o")),
     WIDTH.but(help="Frame width in pixels [640]."),
     HEIGHT.but(help="Frame height in pixels [360]."),
-    FILM[2:], VOLUME, EMITTERS, CAMERA,
+    FILM[2:], VOLUME, EMITTERS, LIGHTING, CAMERA,
     Flag("orbit", float, "Orbit the camera this many degrees about the vertical axis over the "
          "video.", default=0.0),
     INTEGRATOR,

@@ -73,7 +73,8 @@ def volume_from_section(
     if _reads_leaves(spec, source, roles, layout, limits):
         return _sparse_volume(spec, source, roles, remap, blur_fps)
     species_grids = {k: v for k, v in spec.species.items() if isinstance(v, str)}
-    read = source.read(sorted({n for n in roles.values() if n} | set(species_grids.values())))
+    extra_grids = set(species_grids.values()) | _scattering_grid(spec)
+    read = source.read(sorted({n for n in roles.values() if n} | extra_grids))
     grids = read.arrays
     by_role: dict[str, Any] = {role: grids[name] for role, name in roles.items() if name}
     by_role["species"] = {
@@ -88,7 +89,21 @@ def volume_from_section(
     if by_role.get("velocity") is not None:
         by_role["velocity"] = _velocity_m_s(spec, by_role["velocity"], voxel, blur_fps)
     origin = spec.origin_m or file_origin
-    return _assembled(spec, source, roles, grids, by_role, remap, voxel, origin)
+    volume = _assembled(spec, source, roles, grids, by_role, remap, voxel, origin)
+    return _scattering(volume, spec, grids)
+
+
+def _scattering_grid(spec: VolumeSection) -> set[str]:
+    """The name of the σ_s grid the section names (``scattering = "grid"``), if any."""
+    return {spec.scattering} if isinstance(spec.scattering, str) else set()
+
+
+def _scattering(volume: Volume, spec: VolumeSection, grids) -> Volume:
+    """``volume`` with the section's σ_s (a constant, a grid of the file, or the albedo)."""
+    if spec.scattering is None and spec.albedo is None:
+        return volume
+    value = grids[spec.scattering] if isinstance(spec.scattering, str) else spec.scattering
+    return volume.with_scattering(value, spec.albedo, spec.phase_g)
 
 
 def _velocity_grid(spec: VolumeSection, source) -> str:
@@ -174,7 +189,7 @@ def _assembled(spec, source, roles, grids, by_role, remap, voxel, origin, box_si
 def _reads_leaves(spec, source, roles, layout: str, limits: Limits) -> bool:
     """Read sparse leaves? Only T and κ (and a preset's inputs) travel as leaves."""
     extra = any(roles.get(r) for r in ("emission_scale", "sodium_fraction"))
-    extra = extra or bool(spec.species)
+    extra = extra or bool(spec.species) or spec.scattering is not None or spec.albedo is not None
     if layout == "dense" or source.read_leaves is None or extra:
         return False
     if layout == "sparse":

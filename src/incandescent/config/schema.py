@@ -40,7 +40,13 @@ from incandescent.colorimetry.rgb_spaces import rgb_space
 from incandescent.emission import Emission
 from incandescent.imaging.pipeline import DisplaySettings
 from incandescent.renderer.backends import BACKENDS
-from incandescent.renderer.integrators import EmissionAbsorption, Integrator, integrator_from_dict
+from incandescent.renderer.integrators import (
+    EmissionAbsorption,
+    Integrator,
+    SingleScattering,
+    integrator_from_dict,
+)
+from incandescent.renderer.lights import SUN_K, DirectionalLight
 from incandescent.renderer.settings import RenderSettings
 from incandescent.volume.grid import Remap, Volume, check_soot_alpha
 from incandescent.volume.presets import ROLES, preset_parameters
@@ -51,6 +57,7 @@ __all__ = [
     "EmissionSection",
     "GridNames",
     "IntegratorSection",
+    "LightSection",
     "OutputSection",
     "RenderSection",
     "Scene",
@@ -159,6 +166,11 @@ class VolumeSection(_Section):
     velocity_scale: float = Field(default=1.0, ge=0.0, allow_inf_nan=False)
     #: The absorption's spectral law κ_λ = κ·(550 nm/λ)^α (``Volume.soot_alpha``).
     soot_alpha: float = 1.0
+    #: Scattering σ_s: a constant (1/m) or the name of a grid in the file; or ``albedo``
+    #: σ_s/(σ_s + κ); Henyey–Greenstein asymmetry ``phase_g`` (``Volume.with_scattering``).
+    scattering: float | str | None = None
+    albedo: float | None = None
+    phase_g: float = 0.0
 
     @model_validator(mode="after")
     def _check(self) -> VolumeSection:
@@ -176,6 +188,7 @@ class VolumeSection(_Section):
                 "give absorption (a constant, 1/m) or grids.absorption (a grid name), not both"
             )
         _checked(lambda: check_soot_alpha(self.soot_alpha))
+        _scattering_problem(self)
         one_voxel = np.ones((1, 1, 1))
         _checked(
             lambda: Volume.from_arrays(
@@ -187,6 +200,18 @@ class VolumeSection(_Section):
             )
         )
         return self
+
+
+def _scattering_problem(section: VolumeSection) -> None:
+    """σ_s, albedo and g checked as ``Volume.with_scattering`` checks them (on one voxel)."""
+    if isinstance(section.scattering, str) and section.albedo is not None:
+        raise _fail("give scattering (1/m, or a grid name) or albedo, not both")
+    constant = None if isinstance(section.scattering, str) else section.scattering
+    one = Volume.from_arrays(np.ones((1, 1, 1)), absorption=1.0, source="volume")
+    try:
+        one.with_scattering(constant, section.albedo, section.phase_g)
+    except ValueError as error:
+        raise _fail(str(error).removeprefix("volume: ")) from None
 
 
 class CameraSection(_Section):
@@ -278,9 +303,28 @@ class IntegratorSection(BaseModel):
         """The integrator's parameters given (every key but ``type``)."""
         return dict(self.model_extra or {})
 
-    def integrator(self, emission: Emission) -> Integrator:
-        """The integrator; one that takes emission models gets ``emission``."""
-        return integrator_from_dict({"type": self.type, **self.parameters()}, emission=emission)
+    def integrator(self, emission: Emission, lights: tuple = ()) -> Integrator:
+        """The integrator; one that takes emission models gets ``emission``, one that takes
+        lights gets ``lights``."""
+        spec = {"type": self.type, **self.parameters()}
+        return integrator_from_dict(spec, emission=emission, lights=lights)
+
+
+class LightSection(_Section):
+    """One ``[[light]]``: a directional light (``renderer.lights.DirectionalLight``)."""
+
+    type: Literal["directional"] = "directional"
+    direction: Vec3
+    illuminance_lux: float = 1.0
+    temperature_K: float | None = SUN_K
+
+    @model_validator(mode="after")
+    def _check(self) -> LightSection:
+        _checked(self.light)
+        return self
+
+    def light(self) -> DirectionalLight:
+        return DirectionalLight(self.direction, self.illuminance_lux, self.temperature_K)
 
 
 class DisplaySection(_Section):
@@ -336,6 +380,7 @@ class Scene(_Section):
     render: RenderSection = Field(default_factory=RenderSection)
     integrator: IntegratorSection = Field(default_factory=IntegratorSection)
     emission: EmissionSection = Field(default_factory=EmissionSection)
+    light: list[LightSection] = Field(default_factory=list)
     display: DisplaySection = Field(default_factory=DisplaySection)
     output: OutputSection = Field(default_factory=OutputSection)
 
@@ -343,8 +388,24 @@ class Scene(_Section):
         return self.render.settings()
 
     def render_integrator(self) -> Integrator:
-        """The ``[integrator]`` with the ``[emission]`` models."""
-        return self.integrator.integrator(self.emission.emission())
+        """The ``[integrator]`` with the ``[emission]`` models and the ``[[light]]`` lights;
+        lights with no integrator named make it ``single_scattering``."""
+        lights = tuple(section.light() for section in self.light)
+        spec = self.integrator
+        if lights and "type" not in spec.model_fields_set:
+            spec = spec.model_copy(update={"type": SingleScattering.name})
+        built = spec.integrator(self.emission.emission(), lights)
+        if lights and not hasattr(built, "lights"):
+            raise ValueError(
+                f"[[light]] lights need an integrator that scatters (single_scattering); "
+                f"integrator {built.name!r} does not"
+            )
+        return built
+
+    @model_validator(mode="after")
+    def _check_lights(self) -> Scene:
+        _checked(self.render_integrator)
+        return self
 
     def display_settings(self) -> DisplaySettings:
         """Display settings; the RGB space is ``display.space`` or else ``render.space``."""
