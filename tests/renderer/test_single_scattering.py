@@ -14,7 +14,7 @@ from _backends import ALL_BACKENDS
 import incandescent as inc
 from incandescent.io.images import read_exr
 from incandescent.renderer.integrators import EmissionAbsorption, SingleScattering
-from incandescent.renderer.lights import DirectionalLight, henyey_greenstein
+from incandescent.renderer.lights import DirectionalLight, PointLight, henyey_greenstein
 from incandescent.scenes import synthetic
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "pbrt_d1"
@@ -64,6 +64,31 @@ def test_the_slab_error_falls_as_the_step_squared(jit_backend):
     exact = errors.pop()
     ratio = (errors[0] - exact) / (errors[1] - exact)
     assert 3.5 < ratio < 4.5, ratio
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+@pytest.mark.parametrize(("shadows", "rtol"), [("march", 3e-5), ("grid", 3e-3)])
+def test_a_point_light_inside_a_medium_matches_the_transfer_integral(backend, shadows, rtol):
+    """A point light of I cd inside a homogeneous cube, seen along a ray that passes it: the
+    single-scattering integral L = ∫ e^{−σ_t s} σ_s p(cos θ(s)) I/r(s)² e^{−σ_t r(s)} ds evaluated
+    by a 400 001-point trapezoid (independent of the renderer). Measured at step 0.1: 5e-6 to
+    9e-6 (marched shadows), 1.1e-3 (the shadow grid)."""
+    kappa, sigma, g, intensity = 0.4, 1.2, 0.5, 50.0
+    cube = inc.Volume.from_arrays(np.zeros((20, 20, 20)), absorption=kappa, voxel_size_m=0.05)
+    cube = cube.with_scattering(sigma, phase_g=g)
+    lamp = PointLight((0.25, 0.0, 0.1), intensity, temperature_K=None)
+    z = np.linspace(0.5, -0.5, 400_001)
+    to_lamp = np.asarray(lamp.position_m) - np.stack([0 * z, 0 * z, z], axis=1)
+    r = np.linalg.norm(to_lamp, axis=1)
+    cos = -to_lamp[:, 2] / r  # the camera ray runs along −z
+    sigma_t, s = kappa + sigma, 0.5 - z
+    integrand = np.exp(-sigma_t * (s + r)) * sigma * henyey_greenstein(cos, g) * intensity / r**2
+    expected = np.trapezoid(integrand, s)
+    camera = inc.Camera(eye=(0.0, 0.0, 3.0), projection="orthographic", ortho_height_m=0.01)
+    settings = inc.RenderSettings(width=1, height=1, jitter=False, step_voxels=0.1)
+    lit = SingleScattering(lights=(lamp,), shadows=shadows)
+    image = inc.render(cube, camera, settings, backend, integrator=lit)
+    np.testing.assert_allclose(image.xyz[0, 0], expected, rtol=rtol)
 
 
 def _pbrt_sphere() -> tuple[inc.Volume, inc.Camera, DirectionalLight]:
@@ -153,6 +178,8 @@ def test_henyey_greenstein_is_normalised_with_mean_cosine_g(g):
         (lambda v: DirectionalLight((0.0, 1.0, 0.0), -5.0), "illuminance_lux must be >= 0"),
         (lambda v: SingleScattering(spectral_bins=4), "grey band only"),
         (lambda v: SingleScattering(shadows="exact"), "unknown shadows 'exact'"),
+        (lambda v: PointLight((0.0, float("inf"), 0.0)), "needs a position"),
+        (lambda v: PointLight((0.0, 0.0, 0.0), -1.0), "intensity_cd must be >= 0"),
     ],
 )
 def test_bad_scattering_inputs_are_one_clear_error(make, message):

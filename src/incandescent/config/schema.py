@@ -46,7 +46,7 @@ from incandescent.renderer.integrators import (
     SingleScattering,
     integrator_from_dict,
 )
-from incandescent.renderer.lights import SUN_K, DirectionalLight
+from incandescent.renderer.lights import POINT_K, SUN_K, DirectionalLight, Light, PointLight
 from incandescent.renderer.settings import RenderSettings
 from incandescent.volume.grid import Remap, Volume, check_soot_alpha
 from incandescent.volume.presets import ROLES, preset_parameters
@@ -311,20 +311,33 @@ class IntegratorSection(BaseModel):
 
 
 class LightSection(_Section):
-    """One ``[[light]]``: a directional light (``renderer.lights.DirectionalLight``)."""
+    """One ``[[light]]``: ``type = "directional"`` (``direction`` toward it, ``illuminance_lux``)
+    or ``"point"`` (``position_m``, ``intensity_cd``), with ``temperature_K`` (``renderer.lights``).
+    """
 
-    type: Literal["directional"] = "directional"
-    direction: Vec3
+    type: Literal["directional", "point"] = "directional"
+    direction: Vec3 | None = None
     illuminance_lux: float = 1.0
-    temperature_K: float | None = SUN_K
+    position_m: Vec3 | None = None
+    intensity_cd: float = 1.0
+    temperature_K: float | None = None
 
     @model_validator(mode="after")
     def _check(self) -> LightSection:
+        needed, other = ("direction", "position_m")[:: 1 if self.type == "directional" else -1]
+        if getattr(self, needed) is None:
+            raise _fail(f"a {self.type} light needs {needed}")
+        if getattr(self, other) is not None:
+            raise _fail(f"a {self.type} light has no {other}; give {needed}")
         _checked(self.light)
         return self
 
-    def light(self) -> DirectionalLight:
-        return DirectionalLight(self.direction, self.illuminance_lux, self.temperature_K)
+    def light(self) -> Light:
+        if self.type == "point":
+            temperature = POINT_K if self.temperature_K is None else self.temperature_K
+            return PointLight(self.position_m, self.intensity_cd, temperature)  # type: ignore[arg-type]
+        temperature = SUN_K if self.temperature_K is None else self.temperature_K
+        return DirectionalLight(self.direction, self.illuminance_lux, temperature)  # type: ignore[arg-type]
 
 
 class DisplaySection(_Section):

@@ -1,4 +1,4 @@
-"""Lights outside the gas: a directional light (the sun), in photometric units.
+"""Lights: a directional light (the sun) and a point light, in photometric units.
 
 A :class:`DirectionalLight` gives an illuminance E_v (lux) on a plane facing it, with the
 spectrum of a blackbody at ``temperature_K`` (5778 K: the sun's effective temperature) or a flat
@@ -20,6 +20,8 @@ from incandescent.spectra import blackbody_xyz
 
 #: The sun's effective temperature, K (IAU 2015 nominal: 5772 K; 5778 K the common value).
 SUN_K = 5778.0
+#: A point light's default: CIE illuminant A, a tungsten-filament lamp, K.
+POINT_K = 2856.0
 
 
 @dataclass(frozen=True)
@@ -49,12 +51,49 @@ class DirectionalLight:
 
     def irradiance_xyz(self) -> NDArray[np.float64]:
         """XYZ irradiance on a plane facing the light, Y = ``illuminance_lux``."""
-        if self.temperature_K is None:
-            chroma = np.ones(3)  # equal-energy white: x = y = z = 1/3
-        else:
-            xyz = blackbody_xyz(float(self.temperature_K))
-            chroma = xyz / xyz[1]
-        return chroma * self.illuminance_lux
+        return _chroma(self.temperature_K) * self.illuminance_lux
+
+    def xyz(self) -> NDArray[np.float64]:
+        """What the light gives a sample before its transmittance: the XYZ irradiance (lux)."""
+        return self.irradiance_xyz()
+
+
+@dataclass(frozen=True)
+class PointLight:
+    """An isotropic point light at ``position_m`` (world, m) of ``intensity_cd`` candela, with a
+    blackbody spectrum at ``temperature_K`` (None: flat): irradiance I/r² lux at r metres."""
+
+    position_m: tuple[float, float, float]
+    intensity_cd: float = 1.0
+    temperature_K: float | None = POINT_K
+
+    def __post_init__(self) -> None:
+        p = np.asarray(self.position_m, dtype=np.float64)
+        if p.shape != (3,) or not np.isfinite(p).all():
+            raise ValueError(f"a point light needs a position X,Y,Z in m; got {self.position_m!r}")
+        object.__setattr__(self, "position_m", tuple(float(v) for v in p))
+        cd = _validate.finite_scalar(self.intensity_cd, "intensity_cd")
+        if cd < 0:
+            raise ValueError(f"intensity_cd must be >= 0; got {self.intensity_cd!r}")
+        object.__setattr__(self, "intensity_cd", float(cd))
+        if self.temperature_K is not None:
+            _validate.positive_scalar(self.temperature_K, "light temperature_K")
+
+    def xyz(self) -> NDArray[np.float64]:
+        """The XYZ intensity (Y in cd); a sample at r m receives it / r²."""
+        return _chroma(self.temperature_K) * self.intensity_cd
+
+
+#: A light the scattering integrators take.
+Light = DirectionalLight | PointLight
+
+
+def _chroma(temperature_K: float | None) -> NDArray[np.float64]:
+    """XYZ / Y of a blackbody at ``temperature_K``, or of the equal-energy white (None)."""
+    if temperature_K is None:
+        return np.ones(3)  # equal-energy white: x = y = z = 1/3
+    xyz = blackbody_xyz(float(temperature_K))
+    return xyz / xyz[1]
 
 
 def henyey_greenstein(cos_theta, g: float):

@@ -32,9 +32,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from incandescent import _validate
+from incandescent.renderer import rays
+from incandescent.renderer.backends.camera_rays import clip_to_box
 from incandescent.renderer.backends.common import THIN_STEP, Segment, trilinear
 from incandescent.renderer.integrators import emission_absorption as ea
-from incandescent.renderer.lights import DirectionalLight, henyey_greenstein
+from incandescent.renderer.lights import DirectionalLight, Light, PointLight, henyey_greenstein
 
 #: How a light's transmittance reaches a sample: interpolated from a grid marched once from
 #: every voxel centre, or marched from the sample itself.
@@ -47,7 +49,7 @@ MAX_SHADOW_DEPTH = 40.0
 class SingleScattering(ea.EmissionAbsorption):
     """Emission–absorption plus the single scattering of ``lights`` (grey band only)."""
 
-    lights: tuple[DirectionalLight, ...] = ()
+    lights: tuple[Light, ...] = ()
     shadows: str = "grid"
 
     name = "single_scattering"
@@ -58,8 +60,10 @@ class SingleScattering(ea.EmissionAbsorption):
             raise ValueError("single_scattering runs in the grey band only (spectral_bins 0)")
         lights = tuple(self.lights)
         for light in lights:
-            if not isinstance(light, DirectionalLight):
-                raise TypeError(f"a light must be an incandescent DirectionalLight; got {light!r}")
+            if not isinstance(light, (DirectionalLight, PointLight)):
+                raise TypeError(
+                    f"a light must be an incandescent DirectionalLight or PointLight; got {light!r}"
+                )
         object.__setattr__(self, "lights", lights)
         _validate.choice(self.shadows, "shadows", SHADOWS)
 
@@ -91,6 +95,15 @@ class SingleScattering(ea.EmissionAbsorption):
         return _Reference(inputs, self.lights, self.shadows)
 
 
+def _in_voxels(light: Light, volume) -> tuple[float, float, float]:
+    """A light's direction (directional) or its position in the volume's voxel coordinates."""
+    if isinstance(light, DirectionalLight):
+        return light.direction
+    origin = np.asarray(volume.origin_m, dtype=np.float64)
+    where = (np.asarray(light.position_m) - origin) / volume.voxel_size_m
+    return tuple(float(v) for v in where)  # type: ignore[return-value]
+
+
 def _exit_voxels(p, direction, shape, minimum) -> Any:
     """Distance (voxels) from positions p along a fixed unit ``direction`` to the box's exit."""
     t = None
@@ -106,32 +119,78 @@ def _exit_voxels(p, direction, shape, minimum) -> Any:
 class _Traced(ea._Traced):
     """The traced step: emission, extinction σ_t = κ + σ_s, and each light scattered once."""
 
-    def __init__(self, kernel, lights: tuple[DirectionalLight, ...], shadows: str) -> None:
+    def __init__(self, kernel, lights: tuple[Light, ...], shadows: str) -> None:
         super().__init__(kernel)
         vol = kernel.volume
         self.scattering = kernel.grid(("scattering",), vol.scattering_per_m)
         self.g = float(vol.phase_g)
-        self.lights = [(light.direction, light.irradiance_xyz()) for light in lights]
+        self.lights = [(light, _in_voxels(light, vol), light.xyz()) for light in lights]
         self.shadow_grids = None
         if shadows == "grid":
-            self.shadow_grids = [self.transmittance_grid(d) for d, _ in self.lights]
+            self.shadow_grids = [self.transmittance_grid(i) for i in range(len(self.lights))]
 
-    def transmittance_grid(self, direction):
-        """The light's transmittance marched from every voxel centre, evaluated now (one
+    def geometry(self, index: int, p):
+        """Traced: (unit direction toward light ``index``, the march's length in voxels — to the
+        light or the box —, the inverse-square factor in 1/m²) at positions p."""
+        K = self.kernel
+        dr, m = K.dr, K.m
+        light, where, _ = self.lights[index]
+        if isinstance(light, DirectionalLight):
+            exit_voxels = dr.maximum(_exit_voxels(p, where, K.shape, dr.minimum), 0.0)
+            return m.Array3f(*where), exit_voxels, 1.0
+        v = m.Array3f(*where) - p
+        r = dr.maximum(dr.norm(v), 1e-6)
+        d = v / r
+        _, t_box = clip_to_box(dr, m, p, d, K.shape)
+        distance_m = r * K.ds_per_voxel
+        return d, dr.clip(t_box, 0.0, r), 1.0 / (distance_m * distance_m)
+
+    def transmittance_grid(self, index: int):
+        """Light ``index``'s transmittance marched from every voxel centre, evaluated now (one
         kernel), C order: what :meth:`in_scattered` interpolates."""
         K = self.kernel
         m = K.m
         centres = np.indices(K.shape, dtype=np.float32).reshape(3, -1) + np.float32(0.5)
-        grid = self.transmittance_to(m.Array3f(*(m.Float(a) for a in centres)), direction)
+        p = m.Array3f(*(m.Float(a) for a in centres))
+        d, length, _ = self.geometry(index, p)
+        grid = self.transmittance_along(p, d, length)
         K.dr.eval(grid)
         return grid
 
-    def light_transmittance(self, index: int, direction):
-        """Traced: the light's transmittance at the sample (interpolated, or marched)."""
+    def transmittance_along(self, p, d, length):
+        """Traced: e^{−∫σ_t ds} from p along d for ``length`` voxels (midpoint rule)."""
         K = self.kernel
-        if self.shadow_grids is not None:
-            return K.trilinear(self.shadow_grids[index], K.at)
-        return self.transmittance_to(K.position, direction)
+        dr, m = K.dr, K.m
+
+        def cond(k, tau):
+            return (k * K.dt < length) & (tau < MAX_SHADOW_DEPTH)
+
+        def body(k, tau):
+            a = k * K.dt
+            b = dr.minimum(a + K.dt, length)
+            c = K.corners(dr.fma(d, 0.5 * (a + b), p))
+            kappa, _ = K.medium_at(c)
+            sigma_t = kappa + K.trilinear(self.scattering, c)
+            return k + 1.0, dr.fma(sigma_t, (b - a) * K.ds_per_voxel, tau)
+
+        _, tau = dr.while_loop((m.Float(0.0), m.Float(0.0)), cond, body, labels=("k", "tau"))
+        return dr.exp(-tau)
+
+    def in_scattered(self, sigma_s):
+        """Traced: Σ_lights σ_s·p(cos θ)·E·Tr_light at the sample (XYZ per metre)."""
+        K = self.kernel
+        dr, m = K.dr, K.m
+        out = m.Array3f(0.0)
+        for index, (_, _, xyz) in enumerate(self.lights):
+            d, length, falloff = self.geometry(index, K.position)
+            if self.shadow_grids is not None:
+                shadow = K.trilinear(self.shadow_grids[index], K.at)
+            else:
+                shadow = self.transmittance_along(K.position, d, length)
+            cos = dr.dot(d, K.ray_direction)
+            weight = sigma_s * henyey_greenstein(cos, self.g) * shadow * falloff
+            out = dr.fma(m.Array3f(*(float(v) for v in xyz)), weight, out)
+        return out
 
     def interacts(self, kappa, temp, sampled):
         K = self.kernel
@@ -160,18 +219,6 @@ class _Traced(ea._Traced):
         _, tau = dr.while_loop((m.Float(0.0), m.Float(0.0)), cond, body, labels=("k", "tau"))
         return dr.exp(-tau)
 
-    def in_scattered(self, sigma_s):
-        """Traced: Σ_lights σ_s·p(cos θ)·E·Tr_light at the sample (XYZ per metre)."""
-        K = self.kernel
-        dr, m = K.dr, K.m
-        out = m.Array3f(0.0)
-        for index, (direction, xyz) in enumerate(self.lights):
-            cos = dr.dot(m.Array3f(*direction), K.ray_direction)
-            shadow = self.light_transmittance(index, direction)
-            weight = sigma_s * henyey_greenstein(cos, self.g) * shadow
-            out = dr.fma(m.Array3f(*(float(v) for v in xyz)), weight, out)
-        return out
-
     def step(self, tr, L, kappa, temp, c, ds_m, sampled):
         K = self.kernel
         dr = K.dr
@@ -191,33 +238,41 @@ class _Traced(ea._Traced):
 class _Reference(ea._Reference):
     """Float64: exact emission terms, the lights' in-scattering with a float64 shadow march."""
 
-    def __init__(self, inputs, lights: tuple[DirectionalLight, ...], shadows: str) -> None:
+    def __init__(self, inputs, lights: tuple[Light, ...], shadows: str) -> None:
         super().__init__(inputs)
-        self.lights = [(np.asarray(li.direction), li.irradiance_xyz()) for li in lights]
+        vol = inputs.volume
+        self.lights = [(light, np.asarray(_in_voxels(light, vol)), light.xyz()) for light in lights]
         self.shadow_grids = None
         if shadows == "grid":
-            shape = inputs.volume.shape
-            centres = np.indices(shape, dtype=np.float64).reshape(3, -1).T + 0.5
+            centres = np.indices(vol.shape, dtype=np.float64).reshape(3, -1).T + 0.5
             self.shadow_grids = [
-                self.transmittance_to(centres, d).reshape(shape) for d, _ in self.lights
+                self.transmittance_along(centres, *self.geometry(i, centres)[:2]).reshape(vol.shape)
+                for i in range(len(self.lights))
             ]
 
-    def light_transmittance(self, index: int, p: NDArray, direction: NDArray) -> NDArray:
-        if self.shadow_grids is not None:
-            return trilinear(self.shadow_grids[index], p)
-        return self.transmittance_to(p, direction)
+    def geometry(self, index: int, p: NDArray) -> tuple[NDArray, NDArray, NDArray | float]:
+        """(unit directions toward light ``index``, march lengths in voxels, 1/r² in 1/m²)."""
+        vol = self.inputs.volume
+        light, where, _ = self.lights[index]
+        if isinstance(light, DirectionalLight):
+            length = np.maximum(_exit_voxels(p.T, where, vol.shape, np.minimum), 0.0)
+            return np.broadcast_to(where, p.shape), length, 1.0
+        v = where - p
+        r = np.maximum(np.linalg.norm(v, axis=1), 1e-6)
+        d = v / r[:, None]
+        _, t_box = rays.clip_to_box(p, d, np.asarray(vol.shape, dtype=np.float64))
+        return d, np.clip(t_box, 0.0, r), 1.0 / (r * vol.voxel_size_m) ** 2
 
-    def transmittance_to(self, p: NDArray, direction: NDArray) -> NDArray:
+    def transmittance_along(self, p: NDArray, d: NDArray, length: NDArray) -> NDArray:
         vol, dt = self.inputs.volume, self.inputs.settings.step_voxels
-        t_exit = np.maximum(_exit_voxels(p.T, direction, vol.shape, np.minimum), 0.0)
         tau, k = np.zeros(len(p)), 0
         while True:
             a = k * dt
-            live = (a < t_exit) & (tau < MAX_SHADOW_DEPTH)
+            live = (a < length) & (tau < MAX_SHADOW_DEPTH)
             if not live.any():
                 return np.exp(-tau)
-            b = np.minimum(a + dt, t_exit[live])
-            q = p[live] + direction * (0.5 * (a + b))[:, None]
+            b = np.minimum(a + dt, length[live])
+            q = p[live] + d[live] * (0.5 * (a + b))[:, None]
             sigma_t = trilinear(vol.absorption_per_m, q) + trilinear(vol.scattering_per_m, q)
             tau[live] += sigma_t * (b - a) * vol.voxel_size_m
             k += 1
@@ -225,10 +280,14 @@ class _Reference(ea._Reference):
     def in_scattered(self, p, sigma_s, ray_direction) -> NDArray:
         g = float(self.inputs.volume.phase_g)
         out = np.zeros((len(p), 3))
-        for index, (direction, xyz) in enumerate(self.lights):
-            cos = ray_direction @ direction
-            shadow = self.light_transmittance(index, p, direction)
-            weight = sigma_s * henyey_greenstein(cos, g) * shadow
+        for index, (_, _, xyz) in enumerate(self.lights):
+            d, length, falloff = self.geometry(index, p)
+            if self.shadow_grids is not None:
+                shadow = trilinear(self.shadow_grids[index], p)
+            else:
+                shadow = self.transmittance_along(p, d, length)
+            cos = np.einsum("ij,ij->i", ray_direction, d)
+            weight = sigma_s * henyey_greenstein(cos, g) * shadow * falloff
             out += weight[:, None] * xyz
         return out
 
