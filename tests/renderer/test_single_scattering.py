@@ -237,6 +237,8 @@ def test_scene_files_and_flags_light_the_gas(tmp_path):
         (["--phase-g", "-1"], r"phase_g must be in \(-1, 1\)"),
         (["--sun-temperature", "4000"], "--sun-temperature needs --sun"),
         (["--sun", "0,1,0,5", "--integrator", "paper2011"], "need an integrator that scatters"),
+        (["--max-bounces", "2"], "multiple scattering is not built yet"),
+        (["--max-bounces", "1", "--integrator", "paper2011"], "disagree"),
     ],
 )
 def test_bad_lighting_flags_are_one_line_before_any_work(tmp_path, flags, message):
@@ -252,3 +254,24 @@ def test_bad_lighting_flags_are_one_line_before_any_work(tmp_path, flags, messag
     assert len(lines) == 1 and lines[0].startswith("error:"), result.output
     assert re.search(message, lines[0]), lines[0]
     assert not out.exists()
+
+
+def test_max_bounces_zero_is_todays_image_bit_for_bit(tmp_path):
+    """``--max-bounces 0`` with a scattering medium and a sun renders what the same file rendered
+    before scattering existed (emission–absorption, the lights dropped); 1 scatters."""
+    from typer.testing import CliRunner
+
+    from incandescent.cli import app
+
+    np.save(tmp_path / "gas.npy", synthetic.plume_temperature(16))
+    base = ["render", str(tmp_path / "gas.npy"), "--width", "12", "--height", "10"]
+    lit = ["--albedo", "0.6", "--sun", "0,1,0,1e5"]
+    runs = {"today": base, "zero": base + lit + ["--max-bounces", "0"],
+            "one": base + lit + ["--max-bounces", "1"]}  # fmt: skip
+    pixels = {}
+    for name, args in runs.items():
+        result = CliRunner().invoke(app, [*args, "-o", str(tmp_path / f"{name}.exr")])
+        assert result.exit_code == 0, result.output
+        pixels[name] = read_exr(tmp_path / f"{name}.exr")[0]
+    np.testing.assert_array_equal(pixels["zero"], pixels["today"])
+    assert pixels["one"][..., 1].sum() > pixels["today"][..., 1].sum()  # the sun's light added

@@ -216,6 +216,8 @@ LIGHTING = (
     Flag("sun", str, "A sun: X,Y,Z,LUX — direction toward it and illuminance in lux (a "
          "single_scattering render).", "light", _sun),
     Flag("sun_temperature", float, "The sun's blackbody temperature in K [5778]."),
+    Flag("max_bounces", int, "Orders of scattering: 0 (no light scattered: emission–absorption, "
+         "lights dropped) | 1 (single scattering) [1 with lights, else 0]."),
 )
 CAMERA = (
     Flag("eye", str, "Camera position X,Y,Z in m [three-quarter view].", "camera.eye", _vector),
@@ -251,8 +253,9 @@ BRIGHTNESS = Flag("brightness", str, "physical (absolute Planck, emission–abso
                   "(the 2011 method).")
 INTEGRATOR = (
     BRIGHTNESS,
-    Flag("integrator", str, "emission_absorption | paper2011 (the [integrator] type) "
-         "[emission_absorption].", "integrator.type"),
+    Flag("integrator", str, "emission_absorption | paper2011 | single_scattering (the "
+         "[integrator] type) [emission_absorption; single_scattering with lights].",
+         "integrator.type"),
     Flag("spectral_bins", int, "emission_absorption: N spectral bins for soot's κ_λ (0: grey) "
          "[0].", "integrator.spectral_bins"),
     Flag("sodium", float, "Constant sodium fraction 0..1 (species Na)."),
@@ -333,6 +336,25 @@ def _flat(groups: tuple) -> Iterator[Flag]:
         yield from ((group,) if isinstance(group, Flag) else _flat(group))
 
 
+#: ``--max-bounces`` → the integrator that scatters that many times.
+BOUNCE_INTEGRATORS = {0: "emission_absorption", 1: "single_scattering"}
+
+
+def _bounces(bounces: int | None, out: dict) -> None:
+    """``--max-bounces N`` as the integrator type; 0 also drops the lights (today's image)."""
+    if bounces is None:
+        return
+    if bounces not in BOUNCE_INTEGRATORS:
+        raise fail(f"--max-bounces must be 0 or 1 (multiple scattering is not built yet); got "
+                   f"{bounces}")  # fmt: skip
+    table = out.setdefault("integrator", {})
+    if table.get("type") not in (None, BOUNCE_INTEGRATORS[bounces]):
+        raise fail(f"--max-bounces {bounces} and integrator {table['type']!r} disagree; give one")
+    table["type"] = BOUNCE_INTEGRATORS[bounces]
+    if bounces == 0:
+        out["light"] = []
+
+
 def overrides(given: Given) -> dict:
     """Nested scene keys for the flags that were given (the flag → scene map is the flags' keys);
     ``--brightness`` is read as an integrator and ``--sodium`` as species Na."""
@@ -349,6 +371,7 @@ def overrides(given: Given) -> dict:
     if "brightness" in given.values:
         kind = integrator_name(given.values.get("integrator"), given.values["brightness"])
         out.setdefault("integrator", {})["type"] = kind
+    _bounces(given.values.get("max_bounces"), out)
     if given.values.get("sun_temperature") is not None:
         if "light" not in out:
             raise fail("--sun-temperature needs --sun X,Y,Z,LUX")
