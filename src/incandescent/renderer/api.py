@@ -71,7 +71,8 @@ def render_estimate(
         grid_bytes = brick_bytes(volume, packed=True)
     else:
         voxels = float(np.prod(volume.shape))
-        grids = 1 + (volume.emission_scale is not None)
+        scattering = 2 * (volume.scattering_per_m is not None)  # σ_s and a light's shadow grid
+        grids = 1 + (volume.emission_scale is not None) + scattering
         grid_bytes = voxels * (8 + 4 * (grids - 1 + len(volume.species)))
     samples = rays * upper_samples_per_ray(volume.shape, settings.step_voxels)
     return grid_bytes + rays * BYTES_PER_RAY[backend], samples

@@ -210,7 +210,8 @@ class Kernel:
         c = self.corners(p)
         if self.velocity is not None:  # backward advection: the gas at p now was at p − v·t
             v = self.m.Array3f(*(self.trilinear(grid, c) for grid in self.velocity))
-            c = self.corners(dr.fma(v, -self.time_voxels, p))
+            p = dr.fma(v, -self.time_voxels, p)
+            c = self.corners(p)
         kappa, temp = self.medium_at(c)
         self.position, self.at = p, c  # the sample, for integrators that need more than κ, T
         sampled = [model.sample(self, bound, c) for model, bound in self.terms]
