@@ -50,8 +50,7 @@ class Emission:
         κ_λ = κ·(550 nm/λ)^α (``volume.soot_alpha``) — plus the lines of the volume's species."""
         blackbody: BlackbodyGrey
         if bins:
-            alpha = float(getattr(volume, "soot_alpha", 1.0))
-            blackbody = BlackbodyBins(bins, alpha, self.observer, self.constants)
+            blackbody = BlackbodyBins(bins, volume.soot_alpha, self.observer, self.constants)
         else:
             blackbody = BlackbodyGrey(self.observer, self.constants)
         if not volume.species:

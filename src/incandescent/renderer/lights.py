@@ -42,12 +42,7 @@ class DirectionalLight:
                 f"{self.direction!r}"
             )
         object.__setattr__(self, "direction", tuple(float(v) for v in d / np.linalg.norm(d)))
-        lux = _validate.finite_scalar(self.illuminance_lux, "illuminance_lux")
-        if lux < 0:
-            raise ValueError(f"illuminance_lux must be >= 0; got {self.illuminance_lux!r}")
-        object.__setattr__(self, "illuminance_lux", float(lux))
-        if self.temperature_K is not None:
-            _validate.positive_scalar(self.temperature_K, "light temperature_K")
+        _check_amount(self, "illuminance_lux")
 
     def irradiance_xyz(self) -> NDArray[np.float64]:
         """XYZ irradiance on a plane facing the light, Y = ``illuminance_lux``."""
@@ -72,12 +67,7 @@ class PointLight:
         if p.shape != (3,) or not np.isfinite(p).all():
             raise ValueError(f"a point light needs a position X,Y,Z in m; got {self.position_m!r}")
         object.__setattr__(self, "position_m", tuple(float(v) for v in p))
-        cd = _validate.finite_scalar(self.intensity_cd, "intensity_cd")
-        if cd < 0:
-            raise ValueError(f"intensity_cd must be >= 0; got {self.intensity_cd!r}")
-        object.__setattr__(self, "intensity_cd", float(cd))
-        if self.temperature_K is not None:
-            _validate.positive_scalar(self.temperature_K, "light temperature_K")
+        _check_amount(self, "intensity_cd")
 
     def xyz(self) -> NDArray[np.float64]:
         """The XYZ intensity (Y in cd); a sample at r m receives it / r²."""
@@ -86,6 +76,17 @@ class PointLight:
 
 #: A light the scattering integrators take.
 Light = DirectionalLight | PointLight
+
+
+def _check_amount(light, name: str) -> None:
+    """A light's ``name`` (its illuminance or intensity) a finite number >= 0, stored as a float;
+    its ``temperature_K`` None or > 0."""
+    value = _validate.finite_scalar(getattr(light, name), name)
+    if value < 0:
+        raise ValueError(f"{name} must be >= 0; got {getattr(light, name)!r}")
+    object.__setattr__(light, name, float(value))
+    if light.temperature_K is not None:
+        _validate.positive_scalar(light.temperature_K, "light temperature_K")
 
 
 def _chroma(temperature_K: float | None) -> NDArray[np.float64]:

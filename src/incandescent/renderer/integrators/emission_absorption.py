@@ -308,7 +308,7 @@ class _SpectralReference(Reference):
     def __init__(self, inputs, observer: str) -> None:
         super().__init__(inputs)
         self.cmf = cmfs(observer)
-        alpha = float(getattr(inputs.volume, "soot_alpha", 1.0))
+        alpha = inputs.volume.soot_alpha
         self.kappa_scale = (REFERENCE_NM / self.cmf.wavelength_nm) ** alpha
         self.weights = K_M * self.cmf.step_nm * self.cmf.xyz_bar  # (471, 3)
 

@@ -198,27 +198,6 @@ class _Traced(ea._Traced):
         present, emits = super().interacts(kappa, temp, sampled)
         return present | (self.sigma_s > 0.0), emits
 
-    def transmittance_to(self, p, direction):
-        """Traced: e^{−∫σ_t ds} from p toward ``direction`` to the box (midpoint rule)."""
-        K = self.kernel
-        dr, m = K.dr, K.m
-        t_exit = dr.maximum(_exit_voxels(p, direction, K.shape, dr.minimum), 0.0)
-        d = m.Array3f(*direction)
-
-        def cond(k, tau):
-            return (k * K.dt < t_exit) & (tau < MAX_SHADOW_DEPTH)
-
-        def body(k, tau):
-            a = k * K.dt
-            b = dr.minimum(a + K.dt, t_exit)
-            c = K.corners(dr.fma(d, 0.5 * (a + b), p))
-            kappa, _ = K.medium_at(c)
-            sigma_t = kappa + K.trilinear(self.scattering, c)
-            return k + 1.0, dr.fma(sigma_t, (b - a) * K.ds_per_voxel, tau)
-
-        _, tau = dr.while_loop((m.Float(0.0), m.Float(0.0)), cond, body, labels=("k", "tau"))
-        return dr.exp(-tau)
-
     def step(self, tr, L, kappa, temp, c, ds_m, sampled):
         K = self.kernel
         dr = K.dr
