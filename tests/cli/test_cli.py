@@ -546,7 +546,7 @@ def test_every_flag_sets_a_key_of_the_scene_schema():
 
     from incandescent.cli import flags
     from incandescent.config.schema import Scene
-    from incandescent.renderer.integrators import EmissionAbsorption, Paper2011
+    from incandescent.renderer.integrators import INTEGRATORS
 
     keys: dict[str, set] = {}
     for name in ("RENDER", "DEMO", "INFO", "CONVERT", "ANIMATE", "SIMULATE", "BENCH"):
@@ -557,7 +557,7 @@ def test_every_flag_sets_a_key_of_the_scene_schema():
             section, *parts = flag.key.split(".")
             model = Scene.model_fields[section].annotation
             if section == "integrator" and parts != ["type"]:  # a parameter of an integrator
-                assert any(hasattr(kind, parts[0]) for kind in (EmissionAbsorption, Paper2011))
+                assert any(hasattr(kind, parts[0]) for kind in INTEGRATORS.values())
                 continue
             for part in parts:
                 assert part in model.model_fields, (flag.name, flag.key)

@@ -216,6 +216,10 @@ LIGHTING = (
     Flag("sun", str, "A sun: X,Y,Z,LUX — direction toward it and illuminance in lux (a "
          "single_scattering render).", "light", _sun),
     Flag("sun_temperature", float, "The sun's blackbody temperature in K [5778]."),
+    Flag("fire_light", bool, "The volume's own emission lights its smoke (sampled by power; a "
+         "single_scattering render).", default=False),
+    Flag("spp", int, "Monte Carlo sample pairs per scattering sample for the fire's light "
+         "[4].", "integrator.spp"),
     Flag("max_bounces", int, "Orders of scattering: 0 (no light scattered: emission–absorption, "
          "lights dropped) | 1 (single scattering) [1 with lights, else 0]."),
 )
@@ -371,9 +375,11 @@ def overrides(given: Given) -> dict:
     if "brightness" in given.values:
         kind = integrator_name(given.values.get("integrator"), given.values["brightness"])
         out.setdefault("integrator", {})["type"] = kind
+    if given.values.get("fire_light"):
+        out.setdefault("light", []).append({"type": "emission"})
     _bounces(given.values.get("max_bounces"), out)
     if given.values.get("sun_temperature") is not None:
-        if "light" not in out:
+        if given.values.get("sun") is None:
             raise fail("--sun-temperature needs --sun X,Y,Z,LUX")
         out["light"][0]["temperature_K"] = given.values["sun_temperature"]
     if given.values.get("sodium") is not None:

@@ -46,7 +46,14 @@ from incandescent.renderer.integrators import (
     SingleScattering,
     integrator_from_dict,
 )
-from incandescent.renderer.lights import POINT_K, SUN_K, DirectionalLight, Light, PointLight
+from incandescent.renderer.lights import (
+    POINT_K,
+    SUN_K,
+    DirectionalLight,
+    EmissionLight,
+    Light,
+    PointLight,
+)
 from incandescent.renderer.settings import RenderSettings
 from incandescent.volume.grid import Remap, Volume, check_soot_alpha
 from incandescent.volume.presets import ROLES, preset_parameters
@@ -296,7 +303,8 @@ class IntegratorSection(BaseModel):
 
     @model_validator(mode="after")
     def _check(self) -> IntegratorSection:
-        _checked(lambda: self.integrator(Emission()))
+        if "type" in self.model_fields_set:  # else lights may choose it: the scene checks it
+            _checked(lambda: self.integrator(Emission()))
         return self
 
     def parameters(self) -> dict[str, object]:
@@ -312,10 +320,11 @@ class IntegratorSection(BaseModel):
 
 class LightSection(_Section):
     """One ``[[light]]``: ``type = "directional"`` (``direction`` toward it, ``illuminance_lux``)
-    or ``"point"`` (``position_m``, ``intensity_cd``), with ``temperature_K`` (``renderer.lights``).
+    or ``"point"`` (``position_m``, ``intensity_cd``), with ``temperature_K``, or ``"emission"``
+    (the volume's own emission, no keys) (``renderer.lights``).
     """
 
-    type: Literal["directional", "point"] = "directional"
+    type: Literal["directional", "point", "emission"] = "directional"
     direction: Vec3 | None = None
     illuminance_lux: float = 1.0
     position_m: Vec3 | None = None
@@ -324,6 +333,11 @@ class LightSection(_Section):
 
     @model_validator(mode="after")
     def _check(self) -> LightSection:
+        if self.type == "emission":
+            given = sorted(self.model_fields_set - {"type"})
+            if given:
+                raise _fail(f"an emission light takes no keys; got {', '.join(given)}")
+            return self
         needed, other = ("direction", "position_m")[:: 1 if self.type == "directional" else -1]
         if getattr(self, needed) is None:
             raise _fail(f"a {self.type} light needs {needed}")
@@ -333,6 +347,8 @@ class LightSection(_Section):
         return self
 
     def light(self) -> Light:
+        if self.type == "emission":
+            return EmissionLight()
         if self.type == "point":
             temperature = POINT_K if self.temperature_K is None else self.temperature_K
             return PointLight(self.position_m, self.intensity_cd, temperature)  # type: ignore[arg-type]

@@ -1,4 +1,5 @@
-"""Lights: a directional light (the sun) and a point light, in photometric units.
+"""Lights: a directional light (the sun), a point light, in photometric units, and the volume's
+own emission (:class:`EmissionLight`).
 
 A :class:`DirectionalLight` gives an illuminance E_v (lux) on a plane facing it, with the
 spectrum of a blackbody at ``temperature_K`` (5778 K: the sun's effective temperature) or a flat
@@ -74,8 +75,18 @@ class PointLight:
         return _chroma(self.temperature_K) * self.intensity_cd
 
 
+@dataclass(frozen=True)
+class EmissionLight:
+    """The volume's own emission as a light: the fire lighting its smoke (and itself). Sampled
+    by its power over cells of the grid and by the phase function, combined by multiple
+    importance sampling (``renderer.integrators.emission_light``); ``SingleScattering.spp`` sets
+    the number of sample pairs."""
+
+
+#: A light with a direction or a position.
+FixedLight = DirectionalLight | PointLight
 #: A light the scattering integrators take.
-Light = DirectionalLight | PointLight
+Light = DirectionalLight | PointLight | EmissionLight
 
 
 def _check_amount(light, name: str) -> None:

@@ -224,7 +224,7 @@ def paper_rgb(
 
     Examples
     --------
-    >>> paper_rgb(1000.0).max() == 1000.0**1.5
+    >>> bool(paper_rgb(1000.0).max() == 1000.0**1.5)
     True
     """
     temp = _validate.positive_temperature(temperature_K)

@@ -63,6 +63,7 @@ class Segment(NamedTuple):
     b: NDArray[np.float64]
     p: NDArray[np.float64]
     ds_m: NDArray[np.float64]
+    k: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)

@@ -45,6 +45,9 @@ class Kernel:
         #: the current sample's position and trilinear corners (set by ``sample``) and each ray's
         #: unit direction (set by ``trace``): what an integrator may read beyond κ and T
         self.position = self.at = self.ray_direction = None
+        #: each ray's camera-ray index (set by ``trace``) and the current segment's step k (set
+        #: by ``sample``): what seeds an integrator's Monte Carlo estimates, with ``seed``
+        self.ray_index = self.step_k = None
         if inputs.ray_spec is not None and blurs(inputs.ray_spec, vol):
             self.velocity = self._velocity(vol)
         self.program = inputs.integrator.traced(self)
@@ -81,6 +84,7 @@ class Kernel:
         self.ds_per_voxel = np.float32(inputs.volume.voxel_size_m)
         self.dt = np.float32(s.step_voxels)
         self.min_tr = np.float32(s.min_transmittance)
+        self.seed = s.seed
         cells = inputs.macrocells
         self.cells = None if cells is None else m.Float(cells.empty_radius.ravel())
         self.cell_shape = None if cells is None else cells.shape
@@ -213,7 +217,7 @@ class Kernel:
             p = dr.fma(v, -self.time_voxels, p)
             c = self.corners(p)
         kappa, temp = self.medium_at(c)
-        self.position, self.at = p, c  # the sample, for integrators that need more than κ, T
+        self.position, self.at, self.step_k = p, c, k  # for integrators that need more than κ, T
         sampled = [model.sample(self, bound, c) for model, bound in self.terms]
         interacts, emits = self.program.interacts(kappa, temp, sampled)
         tr, L = dr.if_stmt(

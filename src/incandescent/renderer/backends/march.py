@@ -35,6 +35,7 @@ def trace(inputs: MarchInputs, m, order, K: Kernel | None = None):
     assert spec is not None, "the Dr.Jit kernels generate their rays from a RaySpec"
     o, d, t0, t1, j = ray_arrays(m, spec, order)
     K.ray_direction = d  # unit, voxel space = world axes (for integrators that scatter)
+    K.ray_index = m.UInt(order[2])  # the camera ray's index (what seeds Monte Carlo estimates)
     if K.velocity is not None:
         x, y, index = (m.UInt(a) for a in order)
         voxel = dr.opaque(m.Float, float(spec.voxel_size_m))

@@ -38,7 +38,7 @@ def march(inputs: MarchInputs) -> MarchResult:
         a, b, p = _segment(rays, r, k[r], s.step_voxels)
         samples += r.size
         ds_m = (b - a) * vol.voxel_size_m
-        emits = program.step(Segment(r, a, b, p, ds_m), xyz, transmittance)
+        emits = program.step(Segment(r, a, b, p, ds_m, k[r]), xyz, transmittance)
         first = emits & np.isinf(depth[r])
         depth[r[first]] = 0.5 * (a + b)[first] * vol.voxel_size_m
         k[r] += 1

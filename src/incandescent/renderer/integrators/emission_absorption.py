@@ -344,7 +344,7 @@ class _SpectralReference(Reference):
 
     def step(self, segment: Segment, xyz, tr) -> NDArray[np.bool_]:
         vol = self.inputs.volume
-        r, a, b, p, ds_m = segment
+        r, a, b, p, ds_m = segment.r, segment.a, segment.b, segment.p, segment.ds_m
         kappa, temp = trilinear(vol.absorption_per_m, p), trilinear(vol.temperature_K, p)
         sampled = _sampled(self.inputs, p)
         emits = _present(kappa, sampled) & (temp >= self.inputs.lut.t_min_K)

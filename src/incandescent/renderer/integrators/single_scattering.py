@@ -36,21 +36,39 @@ from incandescent.renderer import rays
 from incandescent.renderer.backends.camera_rays import clip_to_box
 from incandescent.renderer.backends.common import THIN_STEP, Segment, trilinear
 from incandescent.renderer.integrators import emission_absorption as ea
-from incandescent.renderer.lights import DirectionalLight, Light, PointLight, henyey_greenstein
+from incandescent.renderer.integrators.emission_light import (
+    LightCells,
+    ReferenceEmissionLight,
+    TracedEmissionLight,
+)
+from incandescent.renderer.lights import (
+    DirectionalLight,
+    EmissionLight,
+    FixedLight,
+    Light,
+    PointLight,
+    henyey_greenstein,
+)
 
 #: How a light's transmittance reaches a sample: interpolated from a grid marched once from
 #: every voxel centre, or marched from the sample itself.
 SHADOWS = ("grid", "march")
 #: The shadow march stops once the optical depth toward the light exceeds this (e^−40 ≈ 4e-18).
 MAX_SHADOW_DEPTH = 40.0
+#: Most Monte Carlo sample pairs per scattering sample (``spp``).
+MAX_SPP = 4096
 
 
 @dataclass(frozen=True)
 class SingleScattering(ea.EmissionAbsorption):
-    """Emission–absorption plus the single scattering of ``lights`` (grey band only)."""
+    """Emission–absorption plus the single scattering of ``lights`` (grey band only). With an
+    :class:`EmissionLight`, each scattering sample of a camera ray averages ``spp`` Monte Carlo
+    sample pairs of the volume's own emission (``emission_light``); the other lights are
+    deterministic."""
 
     lights: tuple[Light, ...] = ()
     shadows: str = "grid"
+    spp: int = 4
 
     name = "single_scattering"
 
@@ -60,12 +78,18 @@ class SingleScattering(ea.EmissionAbsorption):
             raise ValueError("single_scattering runs in the grey band only (spectral_bins 0)")
         lights = tuple(self.lights)
         for light in lights:
-            if not isinstance(light, (DirectionalLight, PointLight)):
+            if not isinstance(light, (DirectionalLight, PointLight, EmissionLight)):
                 raise TypeError(
-                    f"a light must be an incandescent DirectionalLight or PointLight; got {light!r}"
+                    "a light must be an incandescent DirectionalLight, PointLight or "
+                    f"EmissionLight; got {light!r}"
                 )
         object.__setattr__(self, "lights", lights)
         _validate.choice(self.shadows, "shadows", SHADOWS)
+        spp = self.spp
+        integer = isinstance(spp, (int, np.integer)) and not isinstance(spp, bool)
+        if not integer or not 1 <= spp <= MAX_SPP:
+            raise ValueError(f"spp must be an integer in 1..{MAX_SPP}; got {spp!r}")
+        object.__setattr__(self, "spp", int(spp))
 
     def occupancy(self, models) -> tuple[str, Callable | None]:
         """Where the emission models may emit, or the gas scatters (σ_s > 0)."""
@@ -82,20 +106,31 @@ class SingleScattering(ea.EmissionAbsorption):
         return "the single_scattering integrator marches dense grids"
 
     def metadata(self) -> dict[str, object]:
-        return {**super().metadata(), "integrator": self.name, "lights": repr(self.lights)}
+        out = {**super().metadata(), "integrator": self.name, "lights": repr(self.lights)}
+        return out | ({"spp": self.spp} if self.emission_light else {})
+
+    @property
+    def emission_light(self) -> bool:
+        """Does the volume's own emission light it?"""
+        return any(isinstance(light, EmissionLight) for light in self.lights)
 
     def traced(self, kernel):
         if kernel.volume.scattering_per_m is None:
             return super().traced(kernel)
-        return _Traced(kernel, self.lights, self.shadows)
+        return _Traced(kernel, self)
 
     def reference(self, inputs):
         if inputs.volume.scattering_per_m is None:
             return super().reference(inputs)
-        return _Reference(inputs, self.lights, self.shadows)
+        return _Reference(inputs, self)
 
 
-def _in_voxels(light: Light, volume) -> tuple[float, float, float]:
+def _fixed(lights: tuple[Light, ...]) -> list[FixedLight]:
+    """The lights with a position or direction (all but the volume's emission)."""
+    return [light for light in lights if not isinstance(light, EmissionLight)]
+
+
+def _in_voxels(light: FixedLight, volume) -> tuple[float, float, float]:
     """A light's direction (directional) or its position in the volume's voxel coordinates."""
     if isinstance(light, DirectionalLight):
         return light.direction
@@ -119,14 +154,20 @@ def _exit_voxels(p, direction, shape, minimum) -> Any:
 class _Traced(ea._Traced):
     """The traced step: emission, extinction σ_t = κ + σ_s, and each light scattered once."""
 
-    def __init__(self, kernel, lights: tuple[Light, ...], shadows: str) -> None:
+    def __init__(self, kernel, integrator: SingleScattering) -> None:
         super().__init__(kernel)
         vol = kernel.volume
         self.scattering = kernel.grid(("scattering",), vol.scattering_per_m)
         self.g = float(vol.phase_g)
+        lights = _fixed(integrator.lights)
         self.lights = [(light, _in_voxels(light, vol), light.xyz()) for light in lights]
+        self.emitter = None
+        if integrator.emission_light:
+            cells = LightCells.of(vol, kernel.first_table)
+            if cells.emits:
+                self.emitter = TracedEmissionLight(self, cells, integrator.spp, kernel.seed)
         self.shadow_grids = None
-        if shadows == "grid":
+        if integrator.shadows == "grid":
             self.shadow_grids = [self.transmittance_grid(i) for i in range(len(self.lights))]
 
     def geometry(self, index: int, p):
@@ -190,6 +231,8 @@ class _Traced(ea._Traced):
             cos = dr.dot(d, K.ray_direction)
             weight = sigma_s * henyey_greenstein(cos, self.g) * shadow * falloff
             out = dr.fma(m.Array3f(*(float(v) for v in xyz)), weight, out)
+        if self.emitter is not None:
+            out = out + self.emitter.estimate(sigma_s)
         return out
 
     def interacts(self, kappa, temp, sampled):
@@ -217,12 +260,19 @@ class _Traced(ea._Traced):
 class _Reference(ea._Reference):
     """Float64: exact emission terms, the lights' in-scattering with a float64 shadow march."""
 
-    def __init__(self, inputs, lights: tuple[Light, ...], shadows: str) -> None:
+    def __init__(self, inputs, integrator: SingleScattering) -> None:
         super().__init__(inputs)
         vol = inputs.volume
+        lights = _fixed(integrator.lights)
         self.lights = [(light, np.asarray(_in_voxels(light, vol)), light.xyz()) for light in lights]
+        self.emitter = None
+        if integrator.emission_light:
+            cells = LightCells.of(vol, inputs.lut)
+            if cells.emits:
+                seed = inputs.settings.seed
+                self.emitter = ReferenceEmissionLight(self, cells, integrator.spp, seed)
         self.shadow_grids = None
-        if shadows == "grid":
+        if integrator.shadows == "grid":
             centres = np.indices(vol.shape, dtype=np.float64).reshape(3, -1).T + 0.5
             self.shadow_grids = [
                 self.transmittance_along(centres, *self.geometry(i, centres)[:2]).reshape(vol.shape)
@@ -277,6 +327,17 @@ class _Reference(ea._Reference):
             eta[emits] = self.emission_coefficient(kappa, temp, sampled, emits)
         return eta
 
+    def emitted_at(self, p: NDArray, kappa: NDArray) -> NDArray:
+        """η (XYZ per m) at positions p where the absorption is ``kappa``, emission scale
+        included."""
+        inputs, vol = self.inputs, self.inputs.volume
+        temp, sampled = trilinear(vol.temperature_K, p), ea._sampled(inputs, p)
+        emits = ea._present(kappa, sampled) & (temp >= inputs.lut.t_min_K)
+        eta = self.emitted(kappa, temp, sampled, emits)
+        if vol.emission_scale is not None:
+            eta *= trilinear(vol.emission_scale, p)[:, None]
+        return eta
+
     def step(self, segment: Segment, xyz, tr) -> NDArray[np.bool_]:
         vol, inputs = self.inputs.volume, self.inputs
         r, p, ds_m = segment.r, segment.p, segment.ds_m
@@ -290,6 +351,12 @@ class _Reference(ea._Reference):
         if lit.any() and self.lights:
             direction = inputs.rays.direction[r[lit]]
             eta[lit] += self.in_scattered(p[lit], sigma_s[lit], direction)
+        if lit.any() and self.emitter is not None:
+            rows = r[lit]
+            direction, index = inputs.rays.direction[rows], inputs.rays.ray_index[rows]
+            assert segment.k is not None, "the reference march numbers its segments"
+            step = segment.k[lit]
+            eta[lit] += self.emitter.estimate(p[lit], sigma_s[lit], direction, index, step)
         sigma_t = kappa + sigma_s
         x = sigma_t * ds_m
         weight = np.where(x > 0, -np.expm1(-x) / np.where(x > 0, sigma_t, 1.0), ds_m)
