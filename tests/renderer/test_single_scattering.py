@@ -237,7 +237,7 @@ def test_scene_files_and_flags_light_the_gas(tmp_path):
         (["--phase-g", "-1"], r"phase_g must be in \(-1, 1\)"),
         (["--sun-temperature", "4000"], "--sun-temperature needs --sun"),
         (["--sun", "0,1,0,5", "--integrator", "paper2011"], "need an integrator that scatters"),
-        (["--max-bounces", "2"], "multiple scattering is not built yet"),
+        (["--max-bounces", "-2"], "--max-bounces must be 0"),
         (["--max-bounces", "1", "--integrator", "paper2011"], "disagree"),
     ],
 )

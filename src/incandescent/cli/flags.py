@@ -218,10 +218,11 @@ LIGHTING = (
     Flag("sun_temperature", float, "The sun's blackbody temperature in K [5778]."),
     Flag("fire_light", bool, "The volume's own emission lights its smoke (sampled by power; a "
          "single_scattering render).", default=False),
-    Flag("spp", int, "Monte Carlo sample pairs per scattering sample for the fire's light "
-         "[4].", "integrator.spp"),
+    Flag("spp", int, "Monte Carlo samples per scattering sample of a camera ray (the fire's "
+         "light, a sky, paths of --max-bounces >= 2) [4].", "integrator.spp"),
     Flag("max_bounces", int, "Orders of scattering: 0 (no light scattered: emission–absorption, "
-         "lights dropped) | 1 (single scattering) [1 with lights, else 0]."),
+         "lights dropped) | 1 (single scattering) | N >= 2 (multiple scattering, Monte Carlo) "
+         "[1 with lights, else 0]."),
 )
 CAMERA = (
     Flag("eye", str, "Camera position X,Y,Z in m [three-quarter view].", "camera.eye", _vector),
@@ -340,21 +341,24 @@ def _flat(groups: tuple) -> Iterator[Flag]:
         yield from ((group,) if isinstance(group, Flag) else _flat(group))
 
 
-#: ``--max-bounces`` → the integrator that scatters that many times.
-BOUNCE_INTEGRATORS = {0: "emission_absorption", 1: "single_scattering"}
+#: ``--max-bounces`` → the integrator that scatters that many times (2 and more: multiple).
+BOUNCE_INTEGRATORS = {0: "emission_absorption", 1: "single_scattering", 2: "multiple_scattering"}
 
 
 def _bounces(bounces: int | None, out: dict) -> None:
-    """``--max-bounces N`` as the integrator type; 0 also drops the lights (today's image)."""
+    """``--max-bounces N`` as the integrator type (and its ``max_bounces`` from 2 on); 0 also
+    drops the lights (today's image)."""
     if bounces is None:
         return
-    if bounces not in BOUNCE_INTEGRATORS:
-        raise fail(f"--max-bounces must be 0 or 1 (multiple scattering is not built yet); got "
-                   f"{bounces}")  # fmt: skip
+    if bounces < 0:
+        raise fail(f"--max-bounces must be 0 (no scattering), 1 (single) or more; got {bounces}")
+    kind = BOUNCE_INTEGRATORS[min(bounces, 2)]
     table = out.setdefault("integrator", {})
-    if table.get("type") not in (None, BOUNCE_INTEGRATORS[bounces]):
+    if table.get("type") not in (None, kind):
         raise fail(f"--max-bounces {bounces} and integrator {table['type']!r} disagree; give one")
-    table["type"] = BOUNCE_INTEGRATORS[bounces]
+    table["type"] = kind
+    if bounces >= 2:
+        table["max_bounces"] = bounces
     if bounces == 0:
         out["light"] = []
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
-from typing import Literal, TypeVar
+from typing import ClassVar, Literal, TypeVar
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -51,6 +51,7 @@ from incandescent.renderer.lights import (
     SUN_K,
     DirectionalLight,
     EmissionLight,
+    EnvironmentLight,
     Light,
     PointLight,
 )
@@ -320,23 +321,36 @@ class IntegratorSection(BaseModel):
 
 class LightSection(_Section):
     """One ``[[light]]``: ``type = "directional"`` (``direction`` toward it, ``illuminance_lux``)
-    or ``"point"`` (``position_m``, ``intensity_cd``), with ``temperature_K``, or ``"emission"``
-    (the volume's own emission, no keys) (``renderer.lights``).
+    or ``"point"`` (``position_m``, ``intensity_cd``), with ``temperature_K``; ``"environment"``
+    (a uniform sky: ``luminance_cd_m2``, ``temperature_K`` or flat), or ``"emission"`` (the
+    volume's own emission, no keys) (``renderer.lights``).
     """
 
-    type: Literal["directional", "point", "emission"] = "directional"
+    type: Literal["directional", "point", "environment", "emission"] = "directional"
     direction: Vec3 | None = None
     illuminance_lux: float = 1.0
     position_m: Vec3 | None = None
     intensity_cd: float = 1.0
+    luminance_cd_m2: float = 1.0
     temperature_K: float | None = None
+
+    #: the keys each type takes besides ``type``
+    KEYS: ClassVar[dict[str, set[str]]] = {
+        "directional": {"direction", "illuminance_lux", "temperature_K"},
+        "point": {"position_m", "intensity_cd", "temperature_K"},
+        "environment": {"luminance_cd_m2", "temperature_K"},
+        "emission": set(),
+    }
 
     @model_validator(mode="after")
     def _check(self) -> LightSection:
-        if self.type == "emission":
-            given = sorted(self.model_fields_set - {"type"})
-            if given:
-                raise _fail(f"an emission light takes no keys; got {', '.join(given)}")
+        extra = sorted(self.model_fields_set - {"type"} - self.KEYS[self.type])
+        if extra:
+            takes = ", ".join(sorted(self.KEYS[self.type])) or "no keys"
+            article = "an" if self.type[0] in "aeiou" else "a"
+            raise _fail(f"{article} {self.type} light takes {takes}; got {', '.join(extra)}")
+        if self.type in ("emission", "environment"):
+            _checked(self.light)
             return self
         needed, other = ("direction", "position_m")[:: 1 if self.type == "directional" else -1]
         if getattr(self, needed) is None:
@@ -349,6 +363,8 @@ class LightSection(_Section):
     def light(self) -> Light:
         if self.type == "emission":
             return EmissionLight()
+        if self.type == "environment":
+            return EnvironmentLight(self.luminance_cd_m2, self.temperature_K)
         if self.type == "point":
             temperature = POINT_K if self.temperature_K is None else self.temperature_K
             return PointLight(self.position_m, self.intensity_cd, temperature)  # type: ignore[arg-type]

@@ -1,5 +1,6 @@
-"""Lights: a directional light (the sun), a point light, in photometric units, and the volume's
-own emission (:class:`EmissionLight`).
+"""Lights: a directional light (the sun), a point light and a uniform sky
+(:class:`EnvironmentLight`), in photometric units, and the volume's own emission
+(:class:`EmissionLight`).
 
 A :class:`DirectionalLight` gives an illuminance E_v (lux) on a plane facing it, with the
 spectrum of a blackbody at ``temperature_K`` (5778 K: the sun's effective temperature) or a flat
@@ -83,10 +84,31 @@ class EmissionLight:
     the number of sample pairs."""
 
 
+@dataclass(frozen=True)
+class EnvironmentLight:
+    """A uniform sky: radiance of ``luminance_cd_m2`` from every direction outside the box, with
+    a blackbody spectrum at ``temperature_K`` (None: flat, equal-energy white). It lights the gas
+    (sampled by the phase function, its transmittance marched to the box); the image's
+    background stays the gas's own (transparent where nothing is), for compositing over a
+    plate."""
+
+    luminance_cd_m2: float = 1.0
+    temperature_K: float | None = None
+
+    def __post_init__(self) -> None:
+        _check_amount(self, "luminance_cd_m2")
+
+    def xyz(self) -> NDArray[np.float64]:
+        """The XYZ radiance (Y in cd/m²)."""
+        return _chroma(self.temperature_K) * self.luminance_cd_m2
+
+
 #: A light with a direction or a position.
 FixedLight = DirectionalLight | PointLight
 #: A light the scattering integrators take.
-Light = DirectionalLight | PointLight | EmissionLight
+Light = DirectionalLight | PointLight | EmissionLight | EnvironmentLight
+#: The lights a scattering integrator samples by Monte Carlo.
+SampledLight = EmissionLight | EnvironmentLight
 
 
 def _check_amount(light, name: str) -> None:

@@ -5,8 +5,10 @@ plugins from a dict (``type`` plus the class's parameters):
 * ``emission_absorption`` (:class:`EmissionAbsorption`): absolute radiance, grey or in spectral
   bins — the default;
 * ``paper2011`` (:class:`Paper2011`): the 2011 paper's display-referred sums;
-* ``single_scattering`` (:class:`SingleScattering`): emission–absorption plus directional lights
-  scattered once by the volume's σ_s.
+* ``single_scattering`` (:class:`SingleScattering`): emission–absorption plus lights scattered
+  once by the volume's σ_s;
+* ``multiple_scattering`` (:class:`MultipleScattering`): every order up to ``max_bounces``, by
+  Monte Carlo paths.
 
 A new integrator is a subclass of :class:`Integrator` and one :func:`register` call; no backend
 changes.
@@ -19,6 +21,7 @@ from collections.abc import Mapping
 from incandescent import _validate
 from incandescent.renderer.integrators.base import Integrator, Reference, Segment, Traced
 from incandescent.renderer.integrators.emission_absorption import EmissionAbsorption
+from incandescent.renderer.integrators.multiple_scattering import MultipleScattering
 from incandescent.renderer.integrators.paper2011 import Paper2011
 from incandescent.renderer.integrators.single_scattering import SingleScattering
 
@@ -26,6 +29,7 @@ __all__ = [
     "INTEGRATORS",
     "EmissionAbsorption",
     "Integrator",
+    "MultipleScattering",
     "Paper2011",
     "Reference",
     "Segment",
@@ -40,6 +44,7 @@ INTEGRATORS: dict[str, type[Integrator]] = {
     EmissionAbsorption.name: EmissionAbsorption,
     Paper2011.name: Paper2011,
     SingleScattering.name: SingleScattering,
+    MultipleScattering.name: MultipleScattering,
 }
 
 

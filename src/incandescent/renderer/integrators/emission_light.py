@@ -49,8 +49,8 @@ MAX_CELLS_PER_AXIS, MIN_CELL_VOXELS = 32, 4
 ISOTROPIC_G = 1e-3
 #: Random numbers per sample pair: cell, point in the cell (3), phase direction (2).
 DIMENSIONS = 6
-#: Salts of the hash: the render's seed, and the sample index.
-_KEY_SALT, _SAMPLE_MUL, _DIM_ADD = 0x2545F491, 0x9E3779B9, 0x6A09E667
+#: Salts of the hash: the render's seed, the sample index, each dimension and the bounce.
+_KEY_SALT, _SAMPLE_MUL, _DIM_ADD, _BOUNCE_MUL = 0x2545F491, 0x9E3779B9, 0x6A09E667, 0x85EBCA6B
 #: The emission march stops once the optical depth exceeds this (e^−40 ≈ 4e-18).
 MAX_DEPTH = 40.0
 
@@ -72,15 +72,17 @@ def hash_key(seed: int) -> int:
     return int(rays.lowbias32(np.array([(seed + _KEY_SALT) & 0xFFFFFFFF]))[0])
 
 
-def uniforms(ray_index, step, sample, key: int) -> list:
-    """:data:`DIMENSIONS` independent 24-bit integers (uniform · 2²⁴) from UInt32 lanes of the
-    camera ray's index, its step and the sample pair's index (NumPy uint32 arrays or Dr.Jit
-    UInt; both wrap mod 2³²)."""
+def uniforms(ray_index, step, sample, key: int, count: int, bounce=None) -> list:
+    """``count`` independent 24-bit integers (uniform · 2²⁴) from UInt32 lanes of the camera
+    ray's index, its step, the sample's index and (on a path) the bounce (NumPy uint32 arrays
+    or Dr.Jit UInt; both wrap mod 2³²)."""
     h = lowbias32(ray_index ^ key)
     h = lowbias32(h ^ step)
     h = lowbias32(h ^ (sample * _SAMPLE_MUL))
+    if bounce is not None:
+        h = lowbias32(h ^ (bounce * _BOUNCE_MUL))
     out = []
-    for _ in range(DIMENSIONS):
+    for _ in range(count):
         h = lowbias32(h + _DIM_ADD)
         out.append(h >> 8)
     return out
@@ -164,39 +166,23 @@ def _dilated(grid: NDArray) -> NDArray:
 
 # --- Dr.Jit -----------------------------------------------------------------------------------
 class TracedEmissionLight:
-    """The traced estimator of J (XYZ per sr) for the single-scattering program ``program``
-    (which has ``scattering``, ``g`` and ``emission_coefficient``)."""
+    """The traced estimator of the emission part of J (XYZ per sr) for the single-scattering
+    program ``program`` (which has ``scattering``, ``g`` and ``emission_coefficient``)."""
 
-    def __init__(self, program, cells: LightCells, samples: int, seed: int) -> None:
+    def __init__(self, program, cells: LightCells) -> None:
         self.program, self.K = program, program.kernel
         m = self.K.m
         self.cells = cells
-        self.samples, self.key = samples, hash_key(seed)
         self.cdf = m.Float(cells.cdf.astype(np.float32))
         self.density = m.Float(cells.density.astype(np.float32))
         self.ops = drjit_ops(self.K.dr)
 
-    def estimate(self, sigma_s):
-        """Traced: σ_s·Ĵ at the current sample, averaged over ``samples`` pairs (XYZ per m)."""
+    def pair(self, p, d, u):
+        """Traced: Ĵ at p seen along d from one light-sampled and one phase-sampled direction,
+        balance-weighted (``u``: :data:`DIMENSIONS` uniforms)."""
         K = self.K
         dr, m = K.dr, K.m
-
-        def body(j, acc):
-            return j + 1, acc + self.pair(j)
-
-        def run(sigma_s):
-            state = (m.UInt(0), m.Array3f(0.0))
-            _, acc = dr.while_loop(state, lambda j, acc: j < self.samples, body, labels=("j", "J"))
-            return acc * (sigma_s * (1.0 / self.samples))
-
-        return dr.if_stmt((sigma_s,), sigma_s > 0.0, run, lambda sigma_s: m.Array3f(0.0))
-
-    def pair(self, j):
-        """Traced: one light-sampled and one phase-sampled direction, balance-weighted."""
-        K = self.K
-        dr, m = K.dr, K.m
-        p, d, g = K.position, K.ray_direction, self.program.g
-        u = [m.Float(h) * 2.0**-24 for h in uniforms(K.ray_index, m.UInt(K.step_k), j, self.key)]
+        g = self.program.g
         q = self.point_in_cell(u[0], u[1:4])
         v = q - p
         r = dr.norm(v)
@@ -300,24 +286,14 @@ class TracedEmissionLight:
 # --- float64 ----------------------------------------------------------------------------------
 class ReferenceEmissionLight:
     """The float64 estimator: the same directions as :class:`TracedEmissionLight` (the same
-    hashes), exact emission terms (the program's ``emission_coefficient``)."""
+    hashes), exact emission terms (the program's ``emitted_at``)."""
 
-    def __init__(self, program, cells: LightCells, samples: int, seed: int) -> None:
-        self.program, self.inputs = program, program.inputs
-        self.cells, self.samples, self.key = cells, samples, hash_key(seed)
+    def __init__(self, program, cells: LightCells) -> None:
+        self.program, self.inputs, self.cells = program, program.inputs, cells
 
-    def estimate(self, p, sigma_s, d, ray_index, step) -> NDArray:
-        """σ_s·Ĵ at samples p (m, 3) of rays with unit directions d, camera-ray indices and
-        steps (uint32), XYZ per m, (m, 3)."""
-        out = np.zeros((len(p), 3))
-        for j in range(self.samples):
-            out += self.pair(p, d, ray_index, step, np.full(len(p), j, dtype=np.uint32))
-        return out * (sigma_s / self.samples)[:, None]
-
-    def pair(self, p, d, ray_index, step, j) -> NDArray:
+    def pair(self, p, d, u) -> NDArray:
+        """Ĵ at samples p (m, 3) seen along unit d (m, 3), from uniforms ``u`` (float64)."""
         g = float(self.inputs.volume.phase_g)
-        h = uniforms(ray_index.astype(np.uint32), step.astype(np.uint32), j, self.key)
-        u = [v.astype(np.float64) * 2.0**-24 for v in h]
         v = self.point_in_cell(u[0], np.stack(u[1:4], axis=1)) - p
         r = np.linalg.norm(v, axis=1)
         toward_light = np.where((r > 1e-6)[:, None], v / np.maximum(r, 1e-300)[:, None], d)

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,9 +41,11 @@ from incandescent.renderer.integrators.emission_light import (
     ReferenceEmissionLight,
     TracedEmissionLight,
 )
+from incandescent.renderer.integrators.monte_carlo import ReferenceMonteCarlo, TracedMonteCarlo
 from incandescent.renderer.lights import (
     DirectionalLight,
     EmissionLight,
+    EnvironmentLight,
     FixedLight,
     Light,
     PointLight,
@@ -78,10 +80,12 @@ class SingleScattering(ea.EmissionAbsorption):
             raise ValueError("single_scattering runs in the grey band only (spectral_bins 0)")
         lights = tuple(self.lights)
         for light in lights:
-            if not isinstance(light, (DirectionalLight, PointLight, EmissionLight)):
+            if not isinstance(
+                light, (DirectionalLight, PointLight, EmissionLight, EnvironmentLight)
+            ):
                 raise TypeError(
-                    "a light must be an incandescent DirectionalLight, PointLight or "
-                    f"EmissionLight; got {light!r}"
+                    "a light must be an incandescent DirectionalLight, PointLight, EmissionLight "
+                    f"or EnvironmentLight; got {light!r}"
                 )
         object.__setattr__(self, "lights", lights)
         _validate.choice(self.shadows, "shadows", SHADOWS)
@@ -107,7 +111,11 @@ class SingleScattering(ea.EmissionAbsorption):
 
     def metadata(self) -> dict[str, object]:
         out = {**super().metadata(), "integrator": self.name, "lights": repr(self.lights)}
-        return out | ({"spp": self.spp} if self.emission_light else {})
+        sampled = self.max_bounces >= 2 or any(not isinstance(x, FixedLight) for x in self.lights)
+        return out | ({"spp": self.spp} if sampled else {})
+
+    #: Orders of scattering (1 here; :class:`MultipleScattering` sets more).
+    max_bounces: ClassVar[int] = 1
 
     @property
     def emission_light(self) -> bool:
@@ -126,8 +134,17 @@ class SingleScattering(ea.EmissionAbsorption):
 
 
 def _fixed(lights: tuple[Light, ...]) -> list[FixedLight]:
-    """The lights with a position or direction (all but the volume's emission)."""
-    return [light for light in lights if not isinstance(light, EmissionLight)]
+    """The lights with a position or direction (directional, point)."""
+    return [light for light in lights if isinstance(light, (DirectionalLight, PointLight))]
+
+
+def _sampled_lights(integrator, volume, lut) -> tuple[LightCells | None, NDArray | None]:
+    """(the emission light's cells if it emits, the sky's total XYZ radiance) or Nones."""
+    cells = LightCells.of(volume, lut) if integrator.emission_light else None
+    skies = [light.xyz() for light in integrator.lights if isinstance(light, EnvironmentLight)]
+    return (cells if cells is not None and cells.emits else None), (
+        np.sum(skies, axis=0) if skies else None
+    )
 
 
 def _in_voxels(light: FixedLight, volume) -> tuple[float, float, float]:
@@ -161,11 +178,13 @@ class _Traced(ea._Traced):
         self.g = float(vol.phase_g)
         lights = _fixed(integrator.lights)
         self.lights = [(light, _in_voxels(light, vol), light.xyz()) for light in lights]
-        self.emitter = None
-        if integrator.emission_light:
-            cells = LightCells.of(vol, kernel.first_table)
-            if cells.emits:
-                self.emitter = TracedEmissionLight(self, cells, integrator.spp, kernel.seed)
+        self.sampled = None
+        cells, sky = _sampled_lights(integrator, vol, kernel.first_table)
+        if cells is not None or sky is not None or integrator.max_bounces >= 2:
+            emitter = None if cells is None else TracedEmissionLight(self, cells)
+            self.sampled = TracedMonteCarlo(
+                self, emitter, sky, integrator.spp, integrator.max_bounces, kernel.seed
+            )
         self.shadow_grids = None
         if integrator.shadows == "grid":
             self.shadow_grids = [self.transmittance_grid(i) for i in range(len(self.lights))]
@@ -217,22 +236,29 @@ class _Traced(ea._Traced):
         _, tau = dr.while_loop((m.Float(0.0), m.Float(0.0)), cond, body, labels=("k", "tau"))
         return dr.exp(-tau)
 
-    def in_scattered(self, sigma_s):
-        """Traced: Σ_lights σ_s·p(cos θ)·E·Tr_light at the sample (XYZ per metre)."""
+    def direct(self, p, c, view):
+        """Traced: Σ_lights p(cos θ)·E·Tr_light of the directional and point lights at p (trilinear
+        corners c) seen along the unit ``view`` (XYZ per sr)."""
         K = self.kernel
         dr, m = K.dr, K.m
         out = m.Array3f(0.0)
         for index, (_, _, xyz) in enumerate(self.lights):
-            d, length, falloff = self.geometry(index, K.position)
+            d, length, falloff = self.geometry(index, p)
             if self.shadow_grids is not None:
-                shadow = K.trilinear(self.shadow_grids[index], K.at)
+                shadow = K.trilinear(self.shadow_grids[index], c)
             else:
-                shadow = self.transmittance_along(K.position, d, length)
-            cos = dr.dot(d, K.ray_direction)
-            weight = sigma_s * henyey_greenstein(cos, self.g) * shadow * falloff
+                shadow = self.transmittance_along(p, d, length)
+            weight = henyey_greenstein(dr.dot(d, view), self.g) * shadow * falloff
             out = dr.fma(m.Array3f(*(float(v) for v in xyz)), weight, out)
-        if self.emitter is not None:
-            out = out + self.emitter.estimate(sigma_s)
+        return out
+
+    def in_scattered(self, sigma_s):
+        """Traced: σ_s·J at the sample (XYZ per metre): the lights' part exactly, the sampled
+        lights' and the paths' by Monte Carlo (``monte_carlo``)."""
+        K = self.kernel
+        out = self.direct(K.position, K.at, K.ray_direction) * sigma_s
+        if self.sampled is not None:
+            out = out + self.sampled.estimate(sigma_s)
         return out
 
     def interacts(self, kappa, temp, sampled):
@@ -265,12 +291,14 @@ class _Reference(ea._Reference):
         vol = inputs.volume
         lights = _fixed(integrator.lights)
         self.lights = [(light, np.asarray(_in_voxels(light, vol)), light.xyz()) for light in lights]
-        self.emitter = None
-        if integrator.emission_light:
-            cells = LightCells.of(vol, inputs.lut)
-            if cells.emits:
-                seed = inputs.settings.seed
-                self.emitter = ReferenceEmissionLight(self, cells, integrator.spp, seed)
+        self.sampled = None
+        cells, sky = _sampled_lights(integrator, vol, inputs.lut)
+        if cells is not None or sky is not None or integrator.max_bounces >= 2:
+            emitter = None if cells is None else ReferenceEmissionLight(self, cells)
+            seed = inputs.settings.seed
+            self.sampled = ReferenceMonteCarlo(
+                self, emitter, sky, integrator.spp, integrator.max_bounces, seed
+            )
         self.shadow_grids = None
         if integrator.shadows == "grid":
             centres = np.indices(vol.shape, dtype=np.float64).reshape(3, -1).T + 0.5
@@ -306,7 +334,8 @@ class _Reference(ea._Reference):
             tau[live] += sigma_t * (b - a) * vol.voxel_size_m
             k += 1
 
-    def in_scattered(self, p, sigma_s, ray_direction) -> NDArray:
+    def direct(self, p, view) -> NDArray:
+        """The directional and point lights' part of J at p seen along unit ``view`` (m, 3)."""
         g = float(self.inputs.volume.phase_g)
         out = np.zeros((len(p), 3))
         for index, (_, _, xyz) in enumerate(self.lights):
@@ -315,9 +344,8 @@ class _Reference(ea._Reference):
                 shadow = trilinear(self.shadow_grids[index], p)
             else:
                 shadow = self.transmittance_along(p, d, length)
-            cos = np.einsum("ij,ij->i", ray_direction, d)
-            weight = sigma_s * henyey_greenstein(cos, g) * shadow * falloff
-            out += weight[:, None] * xyz
+            cos = np.einsum("ij,ij->i", view, d)
+            out += (henyey_greenstein(cos, g) * shadow * falloff)[:, None] * xyz
         return out
 
     def emitted(self, kappa, temp, sampled, emits) -> NDArray:
@@ -350,13 +378,13 @@ class _Reference(ea._Reference):
         lit = sigma_s > 0
         if lit.any() and self.lights:
             direction = inputs.rays.direction[r[lit]]
-            eta[lit] += self.in_scattered(p[lit], sigma_s[lit], direction)
-        if lit.any() and self.emitter is not None:
+            eta[lit] += sigma_s[lit, None] * self.direct(p[lit], direction)
+        if lit.any() and self.sampled is not None:
             rows = r[lit]
             direction, index = inputs.rays.direction[rows], inputs.rays.ray_index[rows]
             assert segment.k is not None, "the reference march numbers its segments"
             step = segment.k[lit]
-            eta[lit] += self.emitter.estimate(p[lit], sigma_s[lit], direction, index, step)
+            eta[lit] += self.sampled.estimate(p[lit], sigma_s[lit], direction, index, step)
         sigma_t = kappa + sigma_s
         x = sigma_t * ds_m
         weight = np.where(x > 0, -np.expm1(-x) / np.where(x > 0, sigma_t, 1.0), ds_m)
