@@ -201,8 +201,8 @@ def _blocks(a):
 def test_a_cloud_lit_by_its_core_agrees_with_pbrt_v4(jit_backend):
     """pbrt-v4 volpath, maxdepth 2 (emission seen directly and after one scattering), 8192 spp:
     its 8×8-block noise is 4.4 % (``noise.json``). Ours at 4 sample pairs, 2×2 rays per pixel
-    (~5 s on 2 cores; block noise 0.5 % between two seeds): measured median block ratio 0.989
-    (pbrt's emission is ~0.6 % brighter, README), largest deviation 5.8 % (1.3 of pbrt's
+    (~3 s on 2 cores; block noise 0.5 % between two seeds): measured median block ratio 0.990
+    (pbrt's emission is ~0.6 % brighter, README), largest deviation 5.9 % (1.3 of pbrt's
     sigmas), total 0.989."""
     volume, camera = _pbrt_d2()
     settings = inc.RenderSettings(width=64, height=64, supersample=2)

@@ -255,17 +255,19 @@ class TracedEmissionLight:
 
     def radiance_along(self, p, w):
         """Traced: L_e(p, ω), the emission–absorption radiance reaching p from ω (XYZ), marched
-        at the render's step from p to the box (midpoint samples, exact per segment)."""
+        at the program's ``path_dt`` from p to the box (midpoint samples, exact per segment)."""
         K, program = self.K, self.program
         dr, m = K.dr, K.m
         _, t_exit = clip_to_box(dr, m, p, w, K.shape)
 
+        dt = program.path_dt
+
         def cond(k, tau, L):
-            return (k * K.dt < t_exit) & (tau < MAX_DEPTH)
+            return (k * dt < t_exit) & (tau < MAX_DEPTH)
 
         def body(k, tau, L):
-            a = k * K.dt
-            b = dr.minimum(a + K.dt, t_exit)
+            a = k * dt
+            b = dr.minimum(a + dt, t_exit)
             c = K.corners(dr.fma(w, 0.5 * (a + b), p))
             kappa, temp = K.medium_at(c)
             sigma_t = kappa + K.trilinear(program.scattering, c)
@@ -341,7 +343,7 @@ class ReferenceEmissionLight:
     def radiance_along(self, p, w) -> NDArray:
         """L_e(p, ω) by the same march, with the exact emission terms."""
         program, inputs = self.program, self.inputs
-        vol, dt = inputs.volume, inputs.settings.step_voxels
+        vol, dt = inputs.volume, program.path_dt
         _, t_exit = rays.clip_to_box(p, w, np.asarray(vol.shape, dtype=np.float64))
         tau, L, k = np.zeros(len(p)), np.zeros((len(p), 3)), 0
         while True:

@@ -12,12 +12,18 @@ exactly; this module estimates the rest, averaged over ``spp`` samples:
 * **next-event estimation** at a point x seen along d — the emission light's balance-weighted
   pair (``emission_light``) and the sky: ω from the phase function, L_sky·Tr(x → box along ω)
   (the phase pdf cancels the phase);
-* **paths** (``max_bounces`` ≥ 2): from p, ω₁ from the phase function about d, a free-flight
+* **paths** (``max_bounces`` ≥ 2): from p, ω₁ from the phase function about d (with the
+  fire's light: from the mixture q = (1 − γ)·p_HG + γ·pdf_L of the phase function and the
+  power-sampled cells, γ = ``GUIDE``, weighted p_HG/q — one-sample MIS that sends paths where
+  the light they will find is: in a cloud lit by a small fire, the order-2 light concentrates
+  near the fire), a free-flight
   distance t₁ with pdf σ_t·Tr (the march inverted exactly: the segment where the optical depth
   passes −ln(1 − u)), x₁ = p + t₁ω₁; the path's weight gains the albedo σ_s/σ_t there and J
   gains weight × (all lights' next events at x₁ seen along ω₁) — one more order of scattering;
   then from x₁ along ω₂ … up to ``max_bounces`` − 1 vertices, or until a flight leaves the box
-  (no Russian roulette: a path ends where its light would). This is pbrt-v4's volpath with
+  or Russian roulette ends it: after each vertex the path goes on with probability
+  min(1, weight/``ROULETTE``) and its weight is divided by that (Arvo & Kirk 1990; unbiased,
+  and a path whose albedos have made it dim stops costing marches). This is pbrt-v4's volpath with
   ratio tracking replaced by the exact march (no majorant, no null collisions), and its
   ``maxdepth`` counting the same scattering events: orders 1 … ``max_bounces`` of the lights.
 
@@ -35,11 +41,18 @@ from incandescent.renderer import rays
 from incandescent.renderer.backends.camera_rays import clip_to_box
 from incandescent.renderer.backends.common import trilinear
 from incandescent.renderer.integrators import emission_light as el
+from incandescent.renderer.lights import henyey_greenstein
 
 #: Uniforms of one next-event estimate: the emission light's pair, then the sky's direction.
 NEE_DIMENSIONS = el.DIMENSIONS + 2
-#: Uniforms of one path vertex: its next events, the phase direction (2), the free flight.
-VERTEX_DIMENSIONS = NEE_DIMENSIONS + 3
+#: Uniforms of one path vertex: its next events, the phase direction (2), the free flight,
+#: the light-guided direction (a cell and a point in it: 4), the choice between the two, and
+#: Russian roulette.
+VERTEX_DIMENSIONS = NEE_DIMENSIONS + 9
+#: With the fire's light, the probability that a path's next direction is guided toward it.
+GUIDE = 0.5
+#: Russian roulette spares a path until its weight falls below this.
+ROULETTE = 0.25
 
 
 def _to_float(h, m=None):
@@ -102,7 +115,8 @@ class TracedMonteCarlo:
             n, g = el.DIMENSIONS, self.program.g
             w = m.Array3f(*el.sample_henyey_greenstein(u[n], u[n + 1], d, g, self.ops))
             _, t_exit = clip_to_box(dr, m, p, w, K.shape)
-            shadow = self.program.transmittance_along(p, w, dr.maximum(t_exit, 0.0))
+            length = dr.maximum(t_exit, 0.0)
+            shadow = self.program.transmittance_along(p, w, length, self.program.path_dt)
             out = dr.fma(m.Array3f(*self.sky), shadow, out)
         return out
 
@@ -110,7 +124,6 @@ class TracedMonteCarlo:
         """Traced: Σ over the path's vertices of its weight × every light's next events there."""
         K = self.K
         dr, m = K.dr, K.m
-        g = self.program.g
 
         def cond(b, p, d, weight, acc, alive):
             return alive & (b < self.max_bounces)
@@ -118,21 +131,38 @@ class TracedMonteCarlo:
         def body(b, p, d, weight, acc, alive):
             u = self.uniforms(j, VERTEX_DIMENSIONS, b)
             n = NEE_DIMENSIONS
-            w = m.Array3f(*el.sample_henyey_greenstein(u[n], u[n + 1], d, g, self.ops))
+            w, ratio = self.direction(p, d, u[n:])
             hit, t, albedo = self.free_flight(p, w, u[n + 2])
             x = dr.fma(w, t, p)
-            weight = weight * albedo
+            weight = weight * albedo * ratio
 
             def seen(x, w, weight, acc):
                 events = self.program.direct(x, K.corners(x), w) + self.next_events(x, w, u[:n])
                 return dr.fma(events, weight, acc)
 
             acc = dr.if_stmt((x, w, weight, acc), hit, seen, lambda x, w, weight, acc: acc)
-            return b + 1, x, w, weight, acc, hit
+            survive = dr.minimum(weight * (1.0 / ROULETTE), 1.0)
+            alive = hit & (u[n + 8] < survive)
+            return b + 1, x, w, weight / dr.maximum(survive, 1e-30), acc, alive
 
         state = (m.UInt(1), p0, d0, m.Float(1.0), m.Array3f(0.0), m.Bool(True))
         labels = ("b", "p", "d", "weight", "J", "alive")
         return dr.while_loop(state, cond, body, labels=labels)[4]
+
+    def direction(self, p, d, u):
+        """Traced: a path's next direction ω and its weight p_HG(ω·d)/q(ω) (``u``: the vertex's
+        uniforms after its next events')."""
+        K = self.K
+        dr, m = K.dr, K.m
+        g = self.program.g
+        w = m.Array3f(*el.sample_henyey_greenstein(u[0], u[1], d, g, self.ops))
+        if self.emitter is None:
+            return w, 1.0
+        v = self.emitter.point_in_cell(u[3], u[4:7]) - p
+        r = dr.norm(v)
+        w = dr.select((u[7] < GUIDE) & (r > 1e-6), v / r, w)
+        phase = henyey_greenstein(dr.dot(w, d), g)
+        return w, phase / ((1.0 - GUIDE) * phase + GUIDE * self.emitter.pdf_light(p, w))
 
     def free_flight(self, p, w, u):
         """Traced: (hit, distance in voxels, albedo σ_s/σ_t there) of a flight from p along w
@@ -142,12 +172,14 @@ class TracedMonteCarlo:
         target = -dr.log(1.0 - u)
         _, t_exit = clip_to_box(dr, m, p, w, K.shape)
 
+        dt = program.path_dt
+
         def cond(k, tau, t_hit, albedo, hit):
-            return (k * K.dt < t_exit) & ~hit
+            return (k * dt < t_exit) & ~hit
 
         def body(k, tau, t_hit, albedo, hit):
-            a = k * K.dt
-            b = dr.minimum(a + K.dt, t_exit)
+            a = k * dt
+            b = dr.minimum(a + dt, t_exit)
             c = K.corners(dr.fma(w, 0.5 * (a + b), p))
             kappa, _ = K.medium_at(c)
             sigma_s = K.trilinear(program.scattering, c)
@@ -199,13 +231,13 @@ class ReferenceMonteCarlo:
             w = np.stack(hg, axis=1)
             shape = np.asarray(self.inputs.volume.shape, dtype=np.float64)
             _, t_exit = rays.clip_to_box(p, w, shape)
-            shadow = self.program.transmittance_along(p, w, np.maximum(t_exit, 0.0))
+            length = np.maximum(t_exit, 0.0)
+            shadow = self.program.transmittance_along(p, w, length, self.program.path_dt)
             out += shadow[:, None] * self.sky
         return out
 
     def path(self, p, d, seeds) -> NDArray:
         ray_index, step, sample = seeds
-        g = float(self.inputs.volume.phase_g)
         acc, weight = np.zeros((len(p), 3)), np.ones(len(p))
         live = np.arange(len(p))
         p, d = p.copy(), d.copy()
@@ -217,19 +249,36 @@ class ReferenceMonteCarlo:
                                  VERTEX_DIMENSIONS, bounce)  # fmt: skip
             u = [_to_float(h) for h in hashes]
             n = NEE_DIMENSIONS
-            w = np.stack(el.sample_henyey_greenstein(u[n], u[n + 1], d[live].T, g, el.NUMPY_OPS), 1)
+            w, ratio = self.direction(p[live], d[live], u[n:])
             hit, t, albedo = self.free_flight(p[live], w, u[n + 2])
-            live, w, t, albedo = live[hit], w[hit], t[hit], albedo[hit]
+            live, w, t, albedo, ratio = live[hit], w[hit], t[hit], albedo[hit], ratio[hit]
             x = p[live] + w * t[:, None]
-            weight[live] *= albedo
+            weight[live] *= albedo * ratio
             events = self.program.direct(x, w) + self.next_events(x, w, [v[hit] for v in u[:n]])
             acc[live] += weight[live, None] * events
             p[live], d[live] = x, w
+            survive = np.minimum(weight[live] / ROULETTE, 1.0)
+            going = u[n + 8][hit] < survive
+            weight[live] /= np.maximum(survive, 1e-30)
+            live = live[going]
         return acc
+
+    def direction(self, p, d, u) -> tuple[NDArray, NDArray]:
+        """A path's next directions and weights p_HG/q, as traced."""
+        g = float(self.inputs.volume.phase_g)
+        w = np.stack(el.sample_henyey_greenstein(u[0], u[1], d.T, g, el.NUMPY_OPS), axis=1)
+        if self.emitter is None:
+            return w, np.ones(len(p))
+        v = self.emitter.point_in_cell(u[3], np.stack(u[4:7], axis=1)) - p
+        r = np.linalg.norm(v, axis=1)
+        guided = (u[7] < GUIDE) & (r > 1e-6)
+        w[guided] = v[guided] / r[guided, None]
+        phase = henyey_greenstein(np.einsum("ij,ij->i", w, d), g)
+        return w, phase / ((1.0 - GUIDE) * phase + GUIDE * self.emitter.pdf_light(p, w))
 
     def free_flight(self, p, w, u) -> tuple[NDArray, NDArray, NDArray]:
         """(hit, distance in voxels, albedo there) of flights from p along w, as traced."""
-        vol, dt = self.inputs.volume, self.inputs.settings.step_voxels
+        vol, dt = self.inputs.volume, self.program.path_dt
         target = -np.log1p(-u)
         _, t_exit = rays.clip_to_box(p, w, np.asarray(vol.shape, dtype=np.float64))
         tau, t_hit, albedo = np.zeros(len(p)), np.zeros(len(p)), np.zeros(len(p))
