@@ -13,6 +13,8 @@ from incandescent.imaging import DisplaySettings, to_display
 from incandescent.io.output import save_volume, write_json
 from incandescent.output import save_image
 from incandescent.renderer import HDRImage, RenderSettings, render
+from incandescent.renderer.integrators import SingleScattering
+from incandescent.renderer.layers import with_layers
 from incandescent.volume import Remap, Volume
 from incandescent.volume.sparse import SparseVolume
 
@@ -103,14 +105,23 @@ def render_scene(
     table = scene.emission.line_table
     inputs = [source, scene.volume.path, *([] if table is None else [Path(table)])]
     check_image_outputs(out.path, out.stats, out.overwrite, inputs)
+    integrator = scene.render_integrator()
+    if out.layers and not isinstance(integrator, SingleScattering):
+        raise ValueError(
+            f"layers split scattered light: they need lights and a scattering integrator; "
+            f"got {integrator.name!r}"
+        )
     backend = start_backend(scene.volume.path, out.backend)
     settings = scene.render_settings()
     blur_fps = settings.fps if settings.shutter is not None else None
     volume = volume_from_section(scene.volume, scene.remap(), limits, settings.layout, blur_fps)
     start = time.perf_counter()
     camera = scene.camera_for(volume)  # type: ignore[arg-type]  # a SparseVolume has its bounds too
-    image = render(volume, camera, settings, backend, limits, progress,
-                   integrator=scene.render_integrator())  # fmt: skip
+
+    def frame(integrator):
+        return render(volume, camera, settings, backend, limits, progress, integrator=integrator)
+
+    image = with_layers(frame, integrator) if out.layers else frame(integrator)
     with all_or_nothing():  # the image and its stats, or neither
         written = [save_image(image, out.path, scene.display_settings(), out.overwrite)]
         if out.stats is not None:

@@ -46,6 +46,9 @@ def save_image(
         if image.depth_m is not None:
             extra["Z"] = image.depth_m
             meta["Z"] = "distance in m from the camera to the first emitting sample (inf: none)"
+        for name in image.layers:  # EXR layers "emission.R" … (renderer.layers)
+            rgb = image.layer_rgb(name)
+            extra.update({f"{name}.{c}": rgb[..., i] for i, c in enumerate("RGB")})
         return write_exr(path, image.rgb(), meta, overwrite=overwrite, extra_channels=extra)
     if suffix == ".png":
         return write_png(

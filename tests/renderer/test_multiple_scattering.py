@@ -243,3 +243,46 @@ def test_a_scene_file_sky_is_the_python_sky(tmp_path):
     bad = CliRunner().invoke(app, ["render", str(scene), "-o", str(tmp_path / "b.exr")])
     assert bad.exit_code == 2, bad.output
     assert "an environment light takes luminance_cd_m2, temperature_K; got direction" in bad.output
+
+
+def test_layers_split_the_beauty_and_reach_the_exr(tmp_path):
+    """emission + scatter.direct + scatter.indirect is the beauty (float32 rounding); without
+    the fire's light the per-light layers sum to the scattered light exactly; ``--layers``
+    writes them as EXR layers (read back as channels ``emission.R`` …); a PNG or an
+    emission–absorption render with layers is one clear line before any work."""
+    from typer.testing import CliRunner
+
+    from incandescent.cli import app
+    from incandescent.renderer.layers import with_layers
+    from incandescent.scenes import synthetic
+
+    volume = _blob()
+    camera = inc.Camera(eye=(0.2, 0.1, 0.4), target=(0.06, 0.06, 0.06), fov_deg=40.0)
+    settings = inc.RenderSettings(width=8, height=8)
+    lights = (DirectionalLight((0, 1, 0), 3e4), EnvironmentLight(500.0))
+    lit = MultipleScattering(lights=lights, spp=2, max_bounces=8)
+    image = with_layers(lambda i: inc.render(volume, camera, settings, integrator=i), lit)
+    parts = image.layers
+    assert set(parts) == {"emission", "scatter.direct", "scatter.indirect", "light.0", "light.1"}
+    total = parts["emission"] + parts["scatter.direct"] + parts["scatter.indirect"]
+    np.testing.assert_allclose(total, image.xyz, rtol=1e-5, atol=1e-6 * image.xyz.max())
+    scattered = image.xyz - parts["emission"]
+    np.testing.assert_allclose(parts["light.0"] + parts["light.1"], scattered, rtol=1e-4,
+                               atol=1e-5 * image.xyz.max())  # fmt: skip
+    assert parts["scatter.indirect"][..., 1].sum() > 0.05 * scattered[..., 1].sum()
+    np.save(tmp_path / "gas.npy", synthetic.plume_temperature(16))
+    base = ["render", str(tmp_path / "gas.npy"), "--width", "8", "--height", "8"]
+    lit_flags = ["--albedo", "0.7", "--sun", "0,1,0,1e4", "--max-bounces", "3", "--spp", "1"]
+    result = CliRunner().invoke(app, [*base, *lit_flags, "--layers", "-o", str(tmp_path / "a.exr")])
+    assert result.exit_code == 0, result.output
+    rgb, meta, extra = read_exr(tmp_path / "a.exr")
+    for name in ("emission", "scatter.direct", "scatter.indirect"):
+        assert {f"{name}.{c}" for c in "RGB"} <= set(extra)
+    summed = sum(extra[f"{n}.G"] for n in ("emission", "scatter.direct", "scatter.indirect"))
+    np.testing.assert_allclose(summed, rgb[..., 1], rtol=1e-4, atol=1e-6 * rgb.max())
+    assert "layers" in meta
+    for flags, message in (([*lit_flags, "-o", str(tmp_path / "b.png")], "give an .exr output"),
+                           (["-o", str(tmp_path / "c.exr")], "they need lights")):  # fmt: skip
+        bad = CliRunner().invoke(app, [*base, *flags, "--layers"])
+        assert bad.exit_code == 2 and message in bad.output, bad.output
+    assert not (tmp_path / "b.png").exists() and not (tmp_path / "c.exr").exists()

@@ -400,12 +400,14 @@ class DisplaySection(_Section):
 
 
 class OutputSection(_Section):
-    """Where results go; ``backend`` is ``auto`` or one of the render backends."""
+    """Where results go; ``backend`` is ``auto`` or one of the render backends; ``layers``: the
+    scattering render's compositing layers in the EXR (``renderer.layers``)."""
 
     path: Path | None = None
     overwrite: bool = False
     stats: Path | None = None
     backend: str = "auto"
+    layers: bool = False
 
     @model_validator(mode="after")
     def _check(self) -> OutputSection:
@@ -413,6 +415,8 @@ class OutputSection(_Section):
             raise _fail(
                 f"unknown backend {self.backend!r}; expected one of: {', '.join(BACKEND_CHOICES)}"
             )
+        if self.layers and self.path is not None and self.path.suffix.lower() != ".exr":
+            raise _fail(f"layers are EXR layers: give an .exr output; got {self.path}")
         return self
 
 

@@ -24,6 +24,8 @@ class HDRImage:
         a pixel's sub-samples; inf where nothing emits.
     display_rgb: (H, W, 3) float32 display-referred sRGB values of a *display* emission model
         (the 2011 paper's sums, capped at 255: 8-bit code values, not radiometric), else None.
+    layers: name → (H, W, 3) float32 XYZ of a part of the image (``renderer.layers``: emission,
+        scatter.direct, scatter.indirect, light.N), written as EXR layers; empty by default.
     """
 
     xyz: NDArray[np.float32] | None
@@ -32,6 +34,7 @@ class HDRImage:
     metadata: dict = field(default_factory=dict)
     depth_m: NDArray[np.float32] | None = None
     display_rgb: NDArray[np.float32] | None = None
+    layers: dict[str, NDArray[np.float32]] = field(default_factory=dict)
 
     @property
     def height(self) -> int:
@@ -66,6 +69,12 @@ class HDRImage:
         from incandescent.colorimetry import xyz_to_rgb
 
         return xyz_to_rgb(self.scene_xyz, space or self.space).astype(np.float32)
+
+    def layer_rgb(self, name: str, space: str | None = None) -> NDArray[np.float32]:
+        """Layer ``name``'s linear RGB (H, W, 3), as :meth:`rgb`."""
+        from incandescent.colorimetry import xyz_to_rgb
+
+        return xyz_to_rgb(self.layers[name], space or self.space).astype(np.float32)
 
 
 def resolve_pixels(

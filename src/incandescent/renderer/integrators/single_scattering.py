@@ -144,6 +144,11 @@ def _fixed(lights: tuple[Light, ...]) -> list[FixedLight]:
     return [light for light in lights if isinstance(light, (DirectionalLight, PointLight))]
 
 
+def _paths(integrator) -> bool:
+    """Does the integrator trace paths (more than one order, and a light for them to find)?"""
+    return integrator.max_bounces >= 2 and bool(integrator.lights)
+
+
 def _sampled_lights(integrator, volume, lut) -> tuple[LightCells | None, NDArray | None]:
     """(the emission light's cells if it emits, the sky's total XYZ radiance) or Nones."""
     cells = LightCells.of(volume, lut) if integrator.emission_light else None
@@ -188,7 +193,7 @@ class _Traced(ea._Traced):
         self.lights = [(light, _in_voxels(light, vol), light.xyz()) for light in lights]
         self.sampled = None
         cells, sky = _sampled_lights(integrator, vol, kernel.first_table)
-        if cells is not None or sky is not None or integrator.max_bounces >= 2:
+        if cells is not None or sky is not None or _paths(integrator):
             emitter = None if cells is None else TracedEmissionLight(self, cells)
             self.sampled = TracedMonteCarlo(
                 self, emitter, sky, integrator.spp, integrator.max_bounces, kernel.seed
@@ -306,7 +311,7 @@ class _Reference(ea._Reference):
         self.lights = [(light, np.asarray(_in_voxels(light, vol)), light.xyz()) for light in lights]
         self.sampled = None
         cells, sky = _sampled_lights(integrator, vol, inputs.lut)
-        if cells is not None or sky is not None or integrator.max_bounces >= 2:
+        if cells is not None or sky is not None or _paths(integrator):
             emitter = None if cells is None else ReferenceEmissionLight(self, cells)
             seed = inputs.settings.seed
             self.sampled = ReferenceMonteCarlo(
