@@ -169,6 +169,28 @@ def demo_volume(name: str, size: int | None = None, limits: Limits | None = None
     return scene.build(size or scene.default_size)
 
 
+def demo_lighting(name: str, volume, max_bounces: int | None = None, spp: int = 2):
+    """(volume, integrator) of demo ``name`` lit as its scene says (``Scene.lighting``), with
+    ``max_bounces`` orders (None: 1; 0: emission–absorption, today's image); (volume, None)
+    for a scene without lighting."""
+    from incandescent.config.schema import LightSection
+    from incandescent.renderer.integrators import MultipleScattering, SingleScattering
+    from incandescent.scenes import SCENES
+
+    lighting = SCENES[name].lighting
+    if lighting is None or max_bounces == 0:
+        return volume, None
+    if max_bounces is not None and max_bounces < 0:
+        raise ValueError(
+            f"--max-bounces must be 0 (no scattering), 1 (single) or more; got {max_bounces}"
+        )
+    lit = volume.with_scattering(albedo=lighting["albedo"], phase_g=lighting["phase_g"])
+    lights = tuple(LightSection(**spec).light() for spec in lighting["lights"])
+    if max_bounces is None or max_bounces == 1:
+        return lit, SingleScattering(lights=lights, spp=spp)
+    return lit, MultipleScattering(lights=lights, spp=spp, max_bounces=max_bounces)
+
+
 def grid_report(path: Path, axes: str | None = None) -> tuple[list, list[str], dict[str, str]]:
     """What ``incandescent info`` says about a volume file: its grids (``io.volumes.describe``),
     the warnings (a file's; a grid named like temperature that cannot be kelvin; its notes; NaN

@@ -286,3 +286,26 @@ def test_layers_split_the_beauty_and_reach_the_exr(tmp_path):
         bad = CliRunner().invoke(app, [*base, *flags, "--layers"])
         assert bad.exit_code == 2 and message in bad.output, bad.output
     assert not (tmp_path / "b.png").exists() and not (tmp_path / "c.exr").exists()
+
+
+def test_the_lit_demos_light_their_smoke_and_max_bounces_zero_darkens_it(tmp_path):
+    """``demo explosion`` scatters its fire's, the sky's and the sun's light in its smoke;
+    ``--max-bounces 0`` is the emission–absorption render of the same frame, bit for bit."""
+    from typer.testing import CliRunner
+
+    from incandescent.cli import app
+    from incandescent.scenes import SCENES
+
+    runs = {"lit": [], "dark": ["--max-bounces", "0"]}
+    for name, extra in runs.items():
+        args = ["demo", "explosion", "--width", "24", "--height", "24", *extra]
+        result = CliRunner().invoke(app, [*args, "-o", str(tmp_path / f"{name}.exr")])
+        assert result.exit_code == 0, result.output
+    lit, dark = (read_exr(tmp_path / f"{n}.exr")[0] for n in ("lit", "dark"))
+    volume = SCENES["explosion"].build(48)
+    plain = inc.render(volume, None, inc.RenderSettings(width=24, height=24), "cpu")
+    np.testing.assert_array_equal(dark, plain.rgb())
+    meta = read_exr(tmp_path / "lit.exr")[1]
+    assert meta["integrator"] == "single_scattering" and "EmissionLight" in meta["lights"]
+    smoke = dark[..., 1] < 0.2 * dark[..., 1].max()  # where the dark frame shows little
+    assert lit[..., 1][smoke].sum() > 1.2 * dark[..., 1][smoke].sum()

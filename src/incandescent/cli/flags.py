@@ -220,9 +220,9 @@ LIGHTING = (
          "single_scattering render).", default=False),
     Flag("spp", int, "Monte Carlo samples per scattering sample of a camera ray (the fire's "
          "light, a sky, paths of --max-bounces >= 2) [4].", "integrator.spp"),
-    Flag("max_bounces", int, "Orders of scattering: 0 (no light scattered: emission–absorption, "
-         "lights dropped) | 1 (single scattering) | N >= 2 (multiple scattering, Monte Carlo) "
-         "[1 with lights, else 0]."),
+    MAX_BOUNCES := Flag("max_bounces", int, "Orders of scattering: 0 (no light scattered: "
+                        "emission–absorption, lights dropped) | 1 (single scattering) | N >= 2 "
+                        "(multiple scattering, Monte Carlo) [1 with lights, else 0]."),
 )
 CAMERA = (
     Flag("eye", str, "Camera position X,Y,Z in m [three-quarter view].", "camera.eye", _vector),
@@ -417,6 +417,8 @@ DEMO = (
     WIDTH.but(help=f"Image width ({RS.width}; plate {PLATE_SIZE[0]})."),
     HEIGHT.but(help=f"Image height ({RS.height}; plate {PLATE_SIZE[1]})."),
     FRAMES.but(default=250, help="plate: number of frames."),
+    MAX_BOUNCES.but(help="campfire, explosion: orders of their smoke's scattering, 0 (dark "
+                    "smoke: emission–absorption) | 1 | N >= 2 [1]."),
     BRIGHTNESS.but(default="physical", help="physical | paper (the 2011 method)."),
     BACKEND.but(default="auto", help=BACKEND_CHOICES + "."),
     OVERWRITE.but(default=False, decls=(), help="Replace an existing output (plate: and render "

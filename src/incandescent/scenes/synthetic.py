@@ -104,9 +104,21 @@ def simulated_campfire(n: int = 48) -> Volume:
     """Frame 30 (1.25 s) of the ``campfire`` preset simulated at 48 cells
     (``scripts/make_demo_fire.py``), shipped with the package: temperature, soot κ and the blue
     core's CH and C₂ fractions. ``n`` is ignored (the frame has its own grid)."""
+    return _shipped_frame("campfire")
+
+
+def simulated_explosion(n: int = 48) -> Volume:
+    """Frame 24 (1 s) of the ``explosion`` preset simulated at 48 cells
+    (``scripts/make_demo_fire.py --preset explosion --frames 24``), shipped with the package.
+    ``n`` is ignored."""
+    return _shipped_frame("explosion")
+
+
+def _shipped_frame(name: str) -> Volume:
+    """The simulated frame ``scenes/data/NAME.npz``: T, soot κ, CH and C₂ fractions."""
     from importlib.resources import files
 
-    with files("incandescent.scenes").joinpath("data/campfire.npz").open("rb") as handle:
+    with files("incandescent.scenes").joinpath(f"data/{name}.npz").open("rb") as handle:
         with np.load(handle) as data:
             return Volume.from_arrays(
                 data["temperature"],
@@ -114,7 +126,7 @@ def simulated_campfire(n: int = 48) -> Volume:
                 voxel_size_m=float(data["voxel_size_m"]),
                 origin_m=data["origin_m"],
                 species={"CH": data["CH"], "C2": data["C2"]},
-                source="simulated campfire",
+                source=f"simulated {name}",
                 absorption_source="soot",
                 temperature_source="simulated (K)",
             )
