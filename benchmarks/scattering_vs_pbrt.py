@@ -22,30 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from incandescent import Camera, RenderSettings, Volume, render
+from incandescent import RenderSettings, render
 from incandescent.renderer.integrators import MultipleScattering, SingleScattering
 from incandescent.renderer.lights import DirectionalLight, EmissionLight
+from incandescent.scenes import pbrt as pbrt_scenes
 
 DATA = Path(__file__).resolve().parents[1] / "tests" / "data"
-CAMERA = Camera(eye=(0.0, 0.0, 2.6), target=(0.0, 0.0, 0.0), fov_deg=30.0)
-
-
-def _ours(a: np.ndarray) -> np.ndarray:
-    return a.transpose(2, 0, 1)[:, :, ::-1]
-
-
-def _d1() -> Volume:
-    d = _ours(np.load(DATA / "pbrt_d1" / "density.npy"))
-    cold = Volume.from_arrays(np.zeros(d.shape), absorption=0.5 * d, voxel_size_m=1 / 64,
-                              origin_m=(-0.5,) * 3)  # fmt: skip
-    return cold.with_scattering(9.5 * d, phase_g=0.0)
-
-
-def _d2() -> Volume:
-    d = _ours(np.load(DATA / "pbrt_d2" / "density.npy"))
-    temp = _ours(np.load(DATA / "pbrt_d2" / "temperature_K.npy"))
-    gas = Volume.from_arrays(temp, absorption=4.0 * d, voxel_size_m=1 / 64, origin_m=(-0.5,) * 3)
-    return gas.with_scattering(6.0 * d, phase_g=0.5)
 
 
 def _noise(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
@@ -67,10 +49,26 @@ def main(argv: list[str] | None = None) -> dict:
     sun = DirectionalLight((2**-0.5, 2**-0.5, 0.0), 1.0, 5778.0)
     fire = EmissionLight()
     cases = {  # name: (pbrt key, volume, integrator, supersample)
-        "D2_glowing_core_ms": (_d2(), MultipleScattering(lights=(fire,), spp=8), 1),
-        "D2_glowing_core_ss": (_d2(), SingleScattering(lights=(fire,), spp=4), 2),
-        "D1_sunlit_sphere_ms": (_d1(), MultipleScattering(lights=(sun,), spp=8), 2),
-        "D1_sunlit_sphere_ss": (_d1(), SingleScattering(lights=(sun,), shadows="march"), 2),
+        "D2_glowing_core_ms": (
+            pbrt_scenes.glowing_core(DATA / "pbrt_d2"),
+            MultipleScattering(lights=(fire,), spp=8),
+            1,
+        ),
+        "D2_glowing_core_ss": (
+            pbrt_scenes.glowing_core(DATA / "pbrt_d2"),
+            SingleScattering(lights=(fire,), spp=4),
+            2,
+        ),
+        "D1_sunlit_sphere_ms": (
+            pbrt_scenes.sunlit_sphere(DATA / "pbrt_d1"),
+            MultipleScattering(lights=(sun,), spp=8),
+            2,
+        ),
+        "D1_sunlit_sphere_ss": (
+            pbrt_scenes.sunlit_sphere(DATA / "pbrt_d1"),
+            SingleScattering(lights=(sun,), shadows="march"),
+            2,
+        ),
     }
     times: dict[str, list[float]] = {name: [] for name in cases}
     images: dict[str, list[np.ndarray]] = {name: [] for name in cases}
@@ -78,7 +76,7 @@ def main(argv: list[str] | None = None) -> dict:
         for name, (volume, integrator, ss) in cases.items():
             seed = len(images[name])
             settings = RenderSettings(width=64, height=64, supersample=ss, seed=seed)
-            image = render(volume, CAMERA, settings, "cpu", integrator=integrator)
+            image = render(volume, pbrt_scenes.CAMERA, settings, "cpu", integrator=integrator)
             times[name].append(image.metadata["seconds"])
             images[name].append(image.luminance)
     report: dict = {"machine": "2 cores (pbrt's figures: the same machine class, 2 threads)"}

@@ -25,7 +25,7 @@ from incandescent.imaging.pipeline import display_pixels
 from incandescent.io.images import read_exr
 from incandescent.renderer.integrators import MultipleScattering, SingleScattering
 from incandescent.renderer.lights import DirectionalLight, EmissionLight
-from incandescent.scenes import SCENES
+from incandescent.scenes import SCENES, pbrt
 
 #: The fire demo's smoke for the sunlit picture (our choice; soot smoke's albedo is lower,
 #: ~0.2–0.4, pale wood smoke's higher) and its sun (lux).
@@ -71,20 +71,13 @@ def lit_demo(name: str, size: int) -> dict[str, tuple[inc.HDRImage, DisplaySetti
 def pbrt_pair(quick: bool) -> dict[str, tuple[inc.HDRImage, DisplaySettings | None]]:
     """pbrt-v4's D2 (all orders, 8192 spp, ~5 min on 2 threads) and ours (8 paths, ~4 s)."""
 
-    def ours(a):
-        return a.transpose(2, 0, 1)[:, :, ::-1]
-
-    d, temp = ours(np.load(DATA / "density.npy")), ours(np.load(DATA / "temperature_K.npy"))
-    gas = inc.Volume.from_arrays(
-        temp, absorption=4.0 * d, voxel_size_m=1 / 64, origin_m=(-0.5,) * 3
-    )
-    camera = inc.Camera(eye=(0.0, 0.0, 2.6), target=(0.0, 0.0, 0.0), fov_deg=30.0)
+    gas, camera = pbrt.glowing_core(DATA), pbrt.CAMERA
     lit = MultipleScattering(lights=(EmissionLight(),), spp=2 if quick else 8)
     settings = inc.RenderSettings(width=64, height=64)
-    image = inc.render(gas.with_scattering(6.0 * d, phase_g=0.5), camera, settings, integrator=lit)
+    image = inc.render(gas, camera, settings, integrator=lit)
     rgb = read_exr(DATA / "D2_glowing_core_ms_8192spp.exr")[0]
     # pbrt's film: XYZ without 683 and per unit B_peak(2000 K) (tests/data/pbrt_d2/README.md)
-    theirs_xyz = rgb_to_xyz(rgb, "srgb") * 89_515.0
+    theirs_xyz = rgb_to_xyz(rgb, "srgb") * pbrt.D2_CD_M2
     theirs = inc.HDRImage(theirs_xyz.astype(np.float32), image.transmittance)
     display = _fixed(image, None)
     return {"d2_ours": (image, display), "d2_pbrt": (theirs, display)}

@@ -18,7 +18,7 @@ from incandescent.io.images import read_exr
 from incandescent.renderer.integrators import SingleScattering
 from incandescent.renderer.integrators import emission_light as el
 from incandescent.renderer.lights import DirectionalLight, EmissionLight, henyey_greenstein
-from incandescent.scenes import synthetic
+from incandescent.scenes import pbrt, synthetic
 from incandescent.spectra import blackbody_xyz
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "pbrt_d2"
@@ -182,16 +182,7 @@ def test_dr_jit_matches_the_reference_with_the_same_samples():
 
 def _pbrt_d2() -> tuple[inc.Volume, inc.Camera]:
     """D2 in our axes (``tests/data/pbrt_d2/README.md``)."""
-
-    def ours(a):
-        return a.transpose(2, 0, 1)[:, :, ::-1]
-
-    d, temp = ours(np.load(DATA / "density.npy")), ours(np.load(DATA / "temperature_K.npy"))
-    gas = inc.Volume.from_arrays(
-        temp, absorption=4.0 * d, voxel_size_m=1 / 64, origin_m=(-0.5,) * 3
-    )
-    camera = inc.Camera(eye=(0.0, 0.0, 2.6), target=(0.0, 0.0, 0.0), fov_deg=30.0)
-    return gas.with_scattering(6.0 * d, phase_g=0.5), camera
+    return pbrt.glowing_core(DATA), pbrt.CAMERA
 
 
 def _blocks(a):
@@ -209,13 +200,13 @@ def test_a_cloud_lit_by_its_core_agrees_with_pbrt_v4(jit_backend):
     lit = SingleScattering(lights=(EmissionLight(),), spp=4)
     image = inc.render(volume, camera, settings, jit_backend, integrator=lit)
     rgb = read_exr(DATA / "D2_glowing_core_ss_8192spp.exr")[0][..., :3]
-    pbrt = 89_515.0 * (rgb @ np.array([0.2126735, 0.7151516, 0.0721749]))  # cd/m²
-    ours, theirs = _blocks(image.luminance), _blocks(pbrt)
+    theirs_y = pbrt.D2_CD_M2 * (rgb @ pbrt.PBRT_Y)  # cd/m²
+    ours, theirs = _blocks(image.luminance), _blocks(theirs_y)
     bright = theirs > 0.01 * theirs.max()
     ratio = ours[bright] / theirs[bright]
     assert abs(np.median(ratio) - 0.994) < 0.01
     assert np.abs(ratio - 1.0).max() < 3 * 0.044
-    assert image.luminance.sum() / pbrt.sum() == pytest.approx(0.994, abs=0.01)
+    assert image.luminance.sum() / theirs_y.sum() == pytest.approx(0.994, abs=0.01)
     unlit = inc.render(volume, camera, settings, jit_backend, integrator=SingleScattering())
     dark = _blocks(unlit.luminance)[bright] / theirs[bright]
     assert np.median(dark) < 0.8  # without the fire's light the cloud is far outside agreement

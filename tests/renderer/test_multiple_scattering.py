@@ -20,9 +20,10 @@ from incandescent.renderer.lights import (
     EnvironmentLight,
     PointLight,
 )
+from incandescent.scenes import pbrt
 
 DATA = Path(__file__).resolve().parents[1] / "data"
-PBRT_Y = np.array([0.2126735, 0.7151516, 0.0721749])  # pbrt's linear sRGB → Y
+PBRT_Y = pbrt.PBRT_Y
 
 
 def _ball(sigma: float, g: float, n: int = 16) -> inc.Volume:
@@ -117,13 +118,8 @@ def test_dr_jit_walks_the_reference_paths():
 
 
 def _pbrt_d1() -> tuple[inc.Volume, inc.Camera, DirectionalLight]:
-    d = np.load(DATA / "pbrt_d1" / "density.npy").transpose(2, 0, 1)[:, :, ::-1]
-    cold = inc.Volume.from_arrays(
-        np.zeros(d.shape), absorption=0.5 * d, voxel_size_m=1 / 64, origin_m=(-0.5, -0.5, -0.5)
-    )
-    camera = inc.Camera(eye=(0.0, 0.0, 2.6), target=(0.0, 0.0, 0.0), fov_deg=30.0)
     sun = DirectionalLight((2**-0.5, 2**-0.5, 0.0), illuminance_lux=1.0, temperature_K=5778.0)
-    return cold.with_scattering(9.5 * d, phase_g=0.0), camera, sun
+    return pbrt.sunlit_sphere(DATA / "pbrt_d1"), pbrt.CAMERA, sun
 
 
 def _agreement(ours: np.ndarray, theirs: np.ndarray) -> tuple[float, float, float]:
@@ -144,14 +140,14 @@ def test_a_sunlit_smoke_sphere_agrees_with_pbrt_v4_in_all_orders(jit_backend):
     settings = inc.RenderSettings(width=64, height=64, supersample=2)
     lit = MultipleScattering(lights=(sun,), spp=8, max_bounces=64)
     image = inc.render(volume, camera, settings, jit_backend, integrator=lit)
-    pbrt = read_exr(DATA / "pbrt_d1" / "D1_sunlit_sphere_ms_8192spp.exr")[0][..., :3] @ PBRT_Y
-    median, worst, total = _agreement(image.luminance, pbrt)
+    theirs = read_exr(DATA / "pbrt_d1" / "D1_sunlit_sphere_ms_8192spp.exr")[0][..., :3] @ PBRT_Y
+    median, worst, total = _agreement(image.luminance, theirs)
     assert abs(median - 1.0) < 0.01 and abs(total - 1.0) < 0.01
     assert worst < 0.08
     once = inc.render(
         volume, camera, settings, jit_backend, integrator=SingleScattering(lights=(sun,))
     )
-    assert _agreement(once.luminance, pbrt)[2] < 0.8
+    assert _agreement(once.luminance, theirs)[2] < 0.8
 
 
 def test_a_cloud_lit_by_its_core_agrees_with_pbrt_v4_in_all_orders(jit_backend):
@@ -163,7 +159,7 @@ def test_a_cloud_lit_by_its_core_agrees_with_pbrt_v4_in_all_orders(jit_backend):
     lit = MultipleScattering(lights=(EmissionLight(),), spp=8, max_bounces=64)
     image = inc.render(volume, camera, settings, jit_backend, integrator=lit)
     rgb = read_exr(DATA / "pbrt_d2" / "D2_glowing_core_ms_8192spp.exr")[0][..., :3]
-    median, worst, total = _agreement(image.luminance, 89_515.0 * (rgb @ PBRT_Y))
+    median, worst, total = _agreement(image.luminance, pbrt.D2_CD_M2 * (rgb @ PBRT_Y))
     assert abs(median - 0.994) < 0.02 and abs(total - 0.994) < 0.025
     assert worst < 3 * 0.047 * 1.5
 

@@ -15,7 +15,7 @@ import incandescent as inc
 from incandescent.io.images import read_exr
 from incandescent.renderer.integrators import EmissionAbsorption, SingleScattering
 from incandescent.renderer.lights import DirectionalLight, PointLight, henyey_greenstein
-from incandescent.scenes import synthetic
+from incandescent.scenes import pbrt, synthetic
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "pbrt_d1"
 
@@ -92,14 +92,9 @@ def test_a_point_light_inside_a_medium_matches_the_transfer_integral(backend, sh
 
 
 def _pbrt_sphere() -> tuple[inc.Volume, inc.Camera, DirectionalLight]:
-    """D1 in our axes (``tests/data/pbrt_d1/README.md``)."""
-    d = np.load(DATA / "density.npy").transpose(2, 0, 1)[:, :, ::-1]
-    cold = inc.Volume.from_arrays(
-        np.zeros(d.shape), absorption=0.5 * d, voxel_size_m=1 / 64, origin_m=(-0.5, -0.5, -0.5)
-    )
-    camera = inc.Camera(eye=(0.0, 0.0, 2.6), target=(0.0, 0.0, 0.0), fov_deg=30.0)
+    """D1 in our axes (``tests/data/pbrt_d1/README.md``, ``scenes.pbrt``)."""
     sun = DirectionalLight((2**-0.5, 2**-0.5, 0.0), illuminance_lux=1.0, temperature_K=5778.0)
-    return cold.with_scattering(9.5 * d, phase_g=0.0), camera, sun
+    return pbrt.sunlit_sphere(DATA), pbrt.CAMERA, sun
 
 
 @pytest.mark.parametrize("shadows", ["march", "grid"])
@@ -113,7 +108,7 @@ def test_a_sunlit_smoke_sphere_agrees_with_pbrt_v4(jit_backend, shadows):
     lit = SingleScattering(lights=(sun,), shadows=shadows)
     image = inc.render(volume, camera, settings, jit_backend, integrator=lit)
     rgb = read_exr(DATA / "D1_sunlit_sphere_ss_8192spp.exr")[0][..., :3]
-    pbrt_y = rgb @ np.array([0.2126735, 0.7151516, 0.0721749])  # pbrt's RGB → Y
+    pbrt_y = rgb @ pbrt.PBRT_Y  # pbrt's RGB → Y
 
     def blocks(a):
         return a.reshape(8, 8, 8, 8).mean(axis=(1, 3))
