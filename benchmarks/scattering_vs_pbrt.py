@@ -45,6 +45,10 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("out", type=Path)
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args(argv)
+    if args.rounds < 2:
+        parser.error(
+            f"--rounds must be >= 2 (the noise is two seeds' difference); got {args.rounds}"
+        )
     pbrt = json.loads((DATA / "pbrt_d1" / "noise.json").read_text())
     sun = DirectionalLight((2**-0.5, 2**-0.5, 0.0), 1.0, 5778.0)
     fire = EmissionLight()
