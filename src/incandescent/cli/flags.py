@@ -216,6 +216,8 @@ LIGHTING = (
     Flag("sun", str, "A sun: X,Y,Z,LUX — direction toward it and illuminance in lux (a "
          "single_scattering render).", "light", _sun),
     Flag("sun_temperature", float, "The sun's blackbody temperature in K [5778]."),
+    Flag("environment", str, "A sky: FILE.exr (an HDR lat-long map, RGB × 1 = radiance in "
+         "cd/m²) or a uniform luminance in cd/m²."),
     Flag("fire_light", bool, "The volume's own emission lights its smoke (sampled by power; a "
          "single_scattering render).", default=False),
     Flag("spp", int, "Monte Carlo samples per scattering sample of a camera ray (the fire's "
@@ -345,6 +347,15 @@ def _flat(groups: tuple) -> Iterator[Flag]:
 BOUNCE_INTEGRATORS = {0: "emission_absorption", 1: "single_scattering", 2: "multiple_scattering"}
 
 
+def _environment(text: str) -> dict:
+    """``--environment FILE.exr|LUMINANCE`` as a ``[[light]]`` table."""
+    try:
+        luminance = float(text)
+    except ValueError:
+        return {"type": "environment", "map": str(Path(text).expanduser().absolute())}
+    return {"type": "environment", "luminance_cd_m2": luminance}
+
+
 def _bounces(bounces: int | None, out: dict) -> None:
     """``--max-bounces N`` as the integrator type (and its ``max_bounces`` from 2 on); 0 also
     drops the lights (today's image)."""
@@ -381,6 +392,8 @@ def overrides(given: Given) -> dict:
         out.setdefault("integrator", {})["type"] = kind
     if given.values.get("fire_light"):
         out.setdefault("light", []).append({"type": "emission"})
+    if given.values.get("environment") is not None:
+        out.setdefault("light", []).append(_environment(given.values["environment"]))
     _bounces(given.values.get("max_bounces"), out)
     if given.values.get("sun_temperature") is not None:
         if given.values.get("sun") is None:

@@ -179,6 +179,13 @@ def _resolve_paths(data: dict, base_dir: Path, source: str) -> None:
                     base_dir.absolute(), path, f"{source}: {dotted}", dotted in OUTPUT_KEYS
                 )
             table[key] = str(path)
+    lights = data.get("light")
+    for index, table in enumerate(lights if isinstance(lights, list) else []):
+        if isinstance(table, dict) and isinstance(table.get("map"), str):
+            path = Path(table["map"]).expanduser()
+            if not path.is_absolute():
+                path = _inside(base_dir.absolute(), path, f"{source}: light.{index}.map", False)
+            table["map"] = str(path)
 
 
 def _inside(base: Path, relative: Path, where: str, output: bool) -> Path:

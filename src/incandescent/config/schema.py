@@ -27,6 +27,7 @@ Sections and keys (defaults in brackets)::
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from pathlib import Path
 from typing import ClassVar, Literal, TypeVar
@@ -52,6 +53,7 @@ from incandescent.renderer.lights import (
     DirectionalLight,
     EmissionLight,
     EnvironmentLight,
+    EnvironmentMap,
     Light,
     PointLight,
 )
@@ -319,6 +321,13 @@ class IntegratorSection(BaseModel):
         return integrator_from_dict(spec, emission=emission, lights=lights)
 
 
+@functools.lru_cache(maxsize=4)
+def _environment_map(path: Path, scale: float) -> EnvironmentMap:
+    """The lat-long map in ``path`` (read once per path and scale: the scene builds its lights
+    more than once)."""
+    return EnvironmentMap.from_file(path, scale)
+
+
 class LightSection(_Section):
     """One ``[[light]]``: ``type = "directional"`` (``direction`` toward it, ``illuminance_lux``)
     or ``"point"`` (``position_m``, ``intensity_cd``), with ``temperature_K``; ``"environment"``
@@ -332,13 +341,15 @@ class LightSection(_Section):
     position_m: Vec3 | None = None
     intensity_cd: float = 1.0
     luminance_cd_m2: float = 1.0
+    map: Path | None = None
+    scale: float = 1.0
     temperature_K: float | None = None
 
     #: the keys each type takes besides ``type``
     KEYS: ClassVar[dict[str, set[str]]] = {
         "directional": {"direction", "illuminance_lux", "temperature_K"},
         "point": {"position_m", "intensity_cd", "temperature_K"},
-        "environment": {"luminance_cd_m2", "temperature_K"},
+        "environment": {"luminance_cd_m2", "temperature_K", "map", "scale"},
         "emission": set(),
     }
 
@@ -349,6 +360,11 @@ class LightSection(_Section):
             takes = ", ".join(sorted(self.KEYS[self.type])) or "no keys"
             article = "an" if self.type[0] in "aeiou" else "a"
             raise _fail(f"{article} {self.type} light takes {takes}; got {', '.join(extra)}")
+        if self.type == "environment" and self.map is not None:
+            clash = sorted(self.model_fields_set & {"luminance_cd_m2", "temperature_K"})
+            if clash:
+                raise _fail(f"an environment map's colour and level are its pixels × scale; "
+                            f"got {', '.join(clash)} too")  # fmt: skip
         if self.type in ("emission", "environment"):
             _checked(self.light)
             return self
@@ -363,6 +379,8 @@ class LightSection(_Section):
     def light(self) -> Light:
         if self.type == "emission":
             return EmissionLight()
+        if self.type == "environment" and self.map is not None:
+            return _environment_map(self.map, self.scale)
         if self.type == "environment":
             return EnvironmentLight(self.luminance_cd_m2, self.temperature_K)
         if self.type == "point":

@@ -103,12 +103,67 @@ class EnvironmentLight:
         return _chroma(self.temperature_K) * self.luminance_cd_m2
 
 
+@dataclass(frozen=True, eq=False, repr=False)
+class EnvironmentMap:
+    """A sky from an HDR lat-long (equirectangular) image: ``radiance_rgb`` (H, W, 3) linear
+    Rec.709/sRGB-primaries values, W = 2H, × ``scale`` = radiance with Y in cd/m². Row 0 is the
+    zenith (+y), the last row the nadir; column u ∈ [0, 1) is the azimuth φ = 2π(u − ½), the
+    image's centre looking toward −z and u = ¾ toward +x: ω = (sin θ sin φ, cos θ, −sin θ cos φ)
+    with θ = π·v. Sampled by its pixels' power (``integrators.environment_map``); like the
+    uniform sky it lights the gas and is not the image's background."""
+
+    radiance_rgb: NDArray
+    scale: float = 1.0
+    source: str = "an array"
+
+    def __post_init__(self) -> None:
+        rgb = np.asarray(self.radiance_rgb)
+        where = f"environment map {self.source}"
+        if rgb.ndim != 3 or rgb.shape[2] not in (3, 4) or rgb.shape[0] < 2:
+            raise ValueError(f"{where}: expected a lat-long RGB image (H, W, 3); got {rgb.shape}")
+        if rgb.shape[1] != 2 * rgb.shape[0]:
+            raise ValueError(
+                f"{where}: a lat-long map is twice as wide as high; got {rgb.shape[1]}×"
+                f"{rgb.shape[0]} pixels"
+            )
+        if not np.issubdtype(rgb.dtype, np.floating):
+            raise ValueError(f"{where}: expected a float (HDR) image; got {rgb.dtype}")
+        rgb = rgb[..., :3].astype(np.float64)
+        if not np.isfinite(rgb).all() or (rgb < 0).any():
+            raise ValueError(f"{where}: its values must be finite and >= 0")
+        object.__setattr__(self, "radiance_rgb", rgb)
+        _check_amount(self, "scale")
+
+    @classmethod
+    def from_file(cls, path, scale: float = 1.0) -> EnvironmentMap:
+        """The map in the EXR file ``path`` (its R, G, B channels)."""
+        from incandescent.io.images import read_exr
+
+        if not str(path).lower().endswith(".exr"):
+            raise ValueError(f"environment map {path}: expected an OpenEXR (.exr) lat-long image")
+        return cls(read_exr(path)[0], scale, str(path))
+
+    def xyz(self) -> NDArray[np.float64]:
+        """The XYZ radiance per pixel (H, W, 3), Y in cd/m²."""
+        from incandescent.colorimetry import rgb_to_xyz
+
+        return rgb_to_xyz(self.radiance_rgb, "srgb") * self.scale
+
+    @property
+    def temperature_K(self) -> None:
+        return None
+
+    def __repr__(self) -> str:
+        h, w, _ = self.radiance_rgb.shape
+        return f"EnvironmentMap({self.source}, {w}×{h}, scale={self.scale:g})"
+
+
 #: A light with a direction or a position.
 FixedLight = DirectionalLight | PointLight
 #: A light the scattering integrators take.
-Light = DirectionalLight | PointLight | EmissionLight | EnvironmentLight
+Light = DirectionalLight | PointLight | EmissionLight | EnvironmentLight | EnvironmentMap
 #: The lights a scattering integrator samples by Monte Carlo.
-SampledLight = EmissionLight | EnvironmentLight
+SampledLight = EmissionLight | EnvironmentLight | EnvironmentMap
 
 
 def _check_amount(light, name: str) -> None:

@@ -41,6 +41,7 @@ from incandescent.renderer import rays
 from incandescent.renderer.backends.camera_rays import clip_to_box
 from incandescent.renderer.backends.common import trilinear
 from incandescent.renderer.integrators import emission_light as el
+from incandescent.renderer.integrators import environment_map as env
 from incandescent.renderer.lights import henyey_greenstein
 
 #: Uniforms of one next-event estimate: the emission light's pair, then the sky's direction.
@@ -72,6 +73,8 @@ class TracedMonteCarlo:
         self.sky = None if sky_xyz is None else [float(v) for v in sky_xyz]
         self.key = el.hash_key(seed)
         self.ops = el.drjit_ops(self.K.dr)
+        #: the lat-long skies' next events (``environment_map``), set by the program
+        self.maps: list = []
 
     def estimate(self, sigma_s):
         """Traced: σ_s × the mean over ``spp`` samples of the sampled part of J (XYZ per m)."""
@@ -88,10 +91,10 @@ class TracedMonteCarlo:
 
         return dr.if_stmt((sigma_s,), sigma_s > 0.0, run, lambda sigma_s: m.Array3f(0.0))
 
-    def uniforms(self, j, count: int, bounce=None) -> list:
+    def uniforms(self, j, count: int, bounce=None, salt: int = 0) -> list:
         K = self.K
         step = K.m.UInt(K.step_k)
-        hashes = el.uniforms(K.ray_index, step, j, self.key, count, bounce)
+        hashes = el.uniforms(K.ray_index, step, j, self.key ^ salt, count, bounce)
         return [_to_float(h, K.m) for h in hashes]
 
     def sample(self, j):
@@ -99,16 +102,20 @@ class TracedMonteCarlo:
         plus one path."""
         K = self.K
         p, d = K.position, K.ray_direction
-        out = self.next_events(p, d, self.uniforms(j, NEE_DIMENSIONS))
+        out = self.next_events(p, d, self.uniforms(j, NEE_DIMENSIONS), j)
         if self.max_bounces >= 2:
             out = out + self.path(p, d, j)
         return out
 
-    def next_events(self, p, d, u):
-        """Traced: the emission light's pair and the sky at p seen along d (XYZ per sr)."""
+    def next_events(self, p, d, u, j, bounce=None):
+        """Traced: the emission light's pair, the sky and the maps at p seen along d (XYZ per
+        sr); the maps draw their own uniforms from (j, ``bounce``)."""
         K = self.K
         dr, m = K.dr, K.m
         out = m.Array3f(0.0)
+        for sky_map in self.maps:
+            u_map = self.uniforms(j, env.MAP_DIMENSIONS, bounce, env.MAP_SALT)
+            out = out + sky_map.event(p, d, u_map)
         if self.emitter is not None:
             out = out + self.emitter.pair(p, d, u[: el.DIMENSIONS])
         if self.sky is not None:
@@ -137,7 +144,8 @@ class TracedMonteCarlo:
             weight = weight * albedo * ratio
 
             def seen(x, w, weight, acc):
-                events = self.program.direct(x, K.corners(x), w) + self.next_events(x, w, u[:n])
+                events = self.program.direct(x, K.corners(x), w)
+                events = events + self.next_events(x, w, u[:n], j, b)
                 return dr.fma(events, weight, acc)
 
             acc = dr.if_stmt((x, w, weight, acc), hit, seen, lambda x, w, weight, acc: acc)
@@ -205,6 +213,7 @@ class ReferenceMonteCarlo:
         self.emitter, self.spp, self.max_bounces = emitter, spp, max_bounces
         self.sky = None if sky_xyz is None else np.asarray(sky_xyz, dtype=np.float64)
         self.key = el.hash_key(seed)
+        self.maps: list = []
 
     def estimate(self, p, sigma_s, d, ray_index, step) -> NDArray:
         """σ_s × the mean over ``spp`` samples at samples p (m, 3) of rays with unit directions
@@ -216,13 +225,18 @@ class ReferenceMonteCarlo:
             u = [
                 _to_float(h) for h in el.uniforms(ray_index, step, sample, self.key, NEE_DIMENSIONS)
             ]
-            out += self.next_events(p, d, u)
+            out += self.next_events(p, d, u, (ray_index, step, sample))
             if self.max_bounces >= 2:
                 out += self.path(p, d, (ray_index, step, sample))
         return out * (sigma_s / self.spp)[:, None]
 
-    def next_events(self, p, d, u) -> NDArray:
+    def next_events(self, p, d, u, seeds, bounce=None) -> NDArray:
         out = np.zeros((len(p), 3))
+        for sky_map in self.maps:
+            ray_index, step, sample = seeds
+            key = self.key ^ env.MAP_SALT
+            hashes = el.uniforms(ray_index, step, sample, key, env.MAP_DIMENSIONS, bounce)
+            out += sky_map.event(p, d, [_to_float(h) for h in hashes])
         if self.emitter is not None:
             out += self.emitter.pair(p, d, u[: el.DIMENSIONS])
         if self.sky is not None:
@@ -254,7 +268,9 @@ class ReferenceMonteCarlo:
             live, w, t, albedo, ratio = live[hit], w[hit], t[hit], albedo[hit], ratio[hit]
             x = p[live] + w * t[:, None]
             weight[live] *= albedo * ratio
-            events = self.program.direct(x, w) + self.next_events(x, w, [v[hit] for v in u[:n]])
+            rows = (ray_index[live], step[live], sample[live])
+            u_nee = [v[hit] for v in u[:n]]
+            events = self.program.direct(x, w) + self.next_events(x, w, u_nee, rows, bounce[hit])
             acc[live] += weight[live, None] * events
             p[live], d[live] = x, w
             survive = np.minimum(weight[live] / ROULETTE, 1.0)

@@ -41,11 +41,16 @@ from incandescent.renderer.integrators.emission_light import (
     ReferenceEmissionLight,
     TracedEmissionLight,
 )
+from incandescent.renderer.integrators.environment_map import (
+    ReferenceEnvironmentMap,
+    TracedEnvironmentMap,
+)
 from incandescent.renderer.integrators.monte_carlo import ReferenceMonteCarlo, TracedMonteCarlo
 from incandescent.renderer.lights import (
     DirectionalLight,
     EmissionLight,
     EnvironmentLight,
+    EnvironmentMap,
     FixedLight,
     Light,
     PointLight,
@@ -84,12 +89,10 @@ class SingleScattering(ea.EmissionAbsorption):
             raise ValueError("single_scattering runs in the grey band only (spectral_bins 0)")
         lights = tuple(self.lights)
         for light in lights:
-            if not isinstance(
-                light, (DirectionalLight, PointLight, EmissionLight, EnvironmentLight)
-            ):
+            if not isinstance(light, Light):
                 raise TypeError(
-                    "a light must be an incandescent DirectionalLight, PointLight, EmissionLight "
-                    f"or EnvironmentLight; got {light!r}"
+                    "a light must be an incandescent DirectionalLight, PointLight, EmissionLight, "
+                    f"EnvironmentLight or EnvironmentMap; got {light!r}"
                 )
         object.__setattr__(self, "lights", lights)
         _validate.choice(self.shadows, "shadows", SHADOWS)
@@ -144,6 +147,11 @@ def _fixed(lights: tuple[Light, ...]) -> list[FixedLight]:
     return [light for light in lights if isinstance(light, (DirectionalLight, PointLight))]
 
 
+def _maps(integrator) -> list[EnvironmentMap]:
+    """The lat-long skies among the lights."""
+    return [light for light in integrator.lights if isinstance(light, EnvironmentMap)]
+
+
 def _paths(integrator) -> bool:
     """Does the integrator trace paths (more than one order, and a light for them to find)?"""
     return integrator.max_bounces >= 2 and bool(integrator.lights)
@@ -193,11 +201,13 @@ class _Traced(ea._Traced):
         self.lights = [(light, _in_voxels(light, vol), light.xyz()) for light in lights]
         self.sampled = None
         cells, sky = _sampled_lights(integrator, vol, kernel.first_table)
-        if cells is not None or sky is not None or _paths(integrator):
+        maps = _maps(integrator)
+        if cells is not None or sky is not None or maps or _paths(integrator):
             emitter = None if cells is None else TracedEmissionLight(self, cells)
             self.sampled = TracedMonteCarlo(
                 self, emitter, sky, integrator.spp, integrator.max_bounces, kernel.seed
             )
+            self.sampled.maps = [TracedEnvironmentMap(self, sky_map) for sky_map in maps]
         self.shadow_grids = None
         if integrator.shadows == "grid":
             self.shadow_grids = [self.transmittance_grid(i) for i in range(len(self.lights))]
@@ -311,12 +321,14 @@ class _Reference(ea._Reference):
         self.lights = [(light, np.asarray(_in_voxels(light, vol)), light.xyz()) for light in lights]
         self.sampled = None
         cells, sky = _sampled_lights(integrator, vol, inputs.lut)
-        if cells is not None or sky is not None or _paths(integrator):
+        maps = _maps(integrator)
+        if cells is not None or sky is not None or maps or _paths(integrator):
             emitter = None if cells is None else ReferenceEmissionLight(self, cells)
             seed = inputs.settings.seed
             self.sampled = ReferenceMonteCarlo(
                 self, emitter, sky, integrator.spp, integrator.max_bounces, seed
             )
+            self.sampled.maps = [ReferenceEnvironmentMap(self, sky_map) for sky_map in maps]
         self.shadow_grids = None
         if integrator.shadows == "grid":
             centres = np.indices(vol.shape, dtype=np.float64).reshape(3, -1).T + 0.5
