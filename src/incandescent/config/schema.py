@@ -56,6 +56,7 @@ from incandescent.renderer.lights import (
     EnvironmentMap,
     Light,
     PointLight,
+    SpotLight,
 )
 from incandescent.renderer.settings import RenderSettings
 from incandescent.volume.grid import Remap, Volume, check_soot_alpha
@@ -330,16 +331,19 @@ def _environment_map(path: Path, scale: float) -> EnvironmentMap:
 
 class LightSection(_Section):
     """One ``[[light]]``: ``type = "directional"`` (``direction`` toward it, ``illuminance_lux``)
-    or ``"point"`` (``position_m``, ``intensity_cd``), with ``temperature_K``; ``"environment"``
+    or ``"point"`` (``position_m``, ``intensity_cd``) or ``"spot"`` (also ``direction`` it
+    shines along, ``cone_deg``, ``falloff_deg``), with ``temperature_K``; ``"environment"``
     (a uniform sky: ``luminance_cd_m2``, ``temperature_K`` or flat), or ``"emission"`` (the
     volume's own emission, no keys) (``renderer.lights``).
     """
 
-    type: Literal["directional", "point", "environment", "emission"] = "directional"
+    type: Literal["directional", "point", "spot", "environment", "emission"] = "directional"
     direction: Vec3 | None = None
     illuminance_lux: float = 1.0
     position_m: Vec3 | None = None
     intensity_cd: float = 1.0
+    cone_deg: float = 30.0
+    falloff_deg: float = 5.0
     luminance_cd_m2: float = 1.0
     map: Path | None = None
     scale: float = 1.0
@@ -349,6 +353,14 @@ class LightSection(_Section):
     KEYS: ClassVar[dict[str, set[str]]] = {
         "directional": {"direction", "illuminance_lux", "temperature_K"},
         "point": {"position_m", "intensity_cd", "temperature_K"},
+        "spot": {
+            "position_m",
+            "direction",
+            "intensity_cd",
+            "cone_deg",
+            "falloff_deg",
+            "temperature_K",
+        },
         "environment": {"luminance_cd_m2", "temperature_K", "map", "scale"},
         "emission": set(),
     }
@@ -368,11 +380,12 @@ class LightSection(_Section):
         if self.type in ("emission", "environment"):
             _checked(self.light)
             return self
-        needed, other = ("direction", "position_m")[:: 1 if self.type == "directional" else -1]
-        if getattr(self, needed) is None:
-            raise _fail(f"a {self.type} light needs {needed}")
-        if getattr(self, other) is not None:
-            raise _fail(f"a {self.type} light has no {other}; give {needed}")
+        needed = {"directional": ("direction",), "point": ("position_m",)}.get(
+            self.type, ("position_m", "direction")
+        )
+        for key in needed:
+            if getattr(self, key) is None:
+                raise _fail(f"a {self.type} light needs {key}")
         _checked(self.light)
         return self
 
@@ -383,6 +396,10 @@ class LightSection(_Section):
             return _environment_map(self.map, self.scale)
         if self.type == "environment":
             return EnvironmentLight(self.luminance_cd_m2, self.temperature_K)
+        if self.type == "spot":
+            temperature = POINT_K if self.temperature_K is None else self.temperature_K
+            return SpotLight(self.position_m, self.intensity_cd, temperature, self.direction,  # type: ignore[arg-type]
+                             self.cone_deg, self.falloff_deg)  # fmt: skip
         if self.type == "point":
             temperature = POINT_K if self.temperature_K is None else self.temperature_K
             return PointLight(self.position_m, self.intensity_cd, temperature)  # type: ignore[arg-type]

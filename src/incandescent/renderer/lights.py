@@ -77,6 +77,46 @@ class PointLight:
 
 
 @dataclass(frozen=True)
+class SpotLight(PointLight):
+    """A point light at ``position_m`` shining along ``direction`` (world axes, normalised):
+    ``intensity_cd`` on its axis, falling smoothly to 0 between ``cone_deg`` − ``falloff_deg``
+    and ``cone_deg`` off the axis — pbrt-v4's ``spot`` (coneangle, conedelta): I·smoothstep
+    (cos θ_cone, cos(θ_cone − Δ), cos θ)."""
+
+    direction: tuple[float, float, float] = (0.0, -1.0, 0.0)
+    cone_deg: float = 30.0
+    falloff_deg: float = 5.0
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        d = np.asarray(self.direction, dtype=np.float64)
+        if d.shape != (3,) or not np.isfinite(d).all() or np.linalg.norm(d) == 0:
+            raise ValueError(
+                f"a spot light needs a direction X,Y,Z it shines along (not all 0); got "
+                f"{self.direction!r}"
+            )
+        object.__setattr__(self, "direction", tuple(float(v) for v in d / np.linalg.norm(d)))
+        cone = _validate.finite_scalar(self.cone_deg, "cone_deg")
+        falloff = _validate.finite_scalar(self.falloff_deg, "falloff_deg")
+        if not 0 < cone <= 180 or not 0 <= falloff <= cone:
+            raise ValueError(
+                f"a spot light needs 0 < cone_deg <= 180 and 0 <= falloff_deg <= cone_deg; got "
+                f"cone_deg {self.cone_deg!r}, falloff_deg {self.falloff_deg!r}"
+            )
+        object.__setattr__(self, "cone_deg", float(cone))
+        object.__setattr__(self, "falloff_deg", float(falloff))
+
+    def factor(self, cos_theta, clip):
+        """The intensity's fraction at cos θ off the axis (``clip``: np.clip or dr.clip)."""
+        end = float(np.cos(np.radians(self.cone_deg)))
+        start = float(np.cos(np.radians(self.cone_deg - self.falloff_deg)))
+        if start - end < 1e-12:  # no falloff: a hard edge
+            return clip((cos_theta - end) * 1e30, 0.0, 1.0)
+        t = clip((cos_theta - end) * (1.0 / (start - end)), 0.0, 1.0)
+        return t * t * (3.0 - 2.0 * t)
+
+
+@dataclass(frozen=True)
 class EmissionLight:
     """The volume's own emission as a light: the fire lighting its smoke (and itself). Sampled
     by its power over cells of the grid and by the phase function, combined by multiple

@@ -54,6 +54,7 @@ from incandescent.renderer.lights import (
     FixedLight,
     Light,
     PointLight,
+    SpotLight,
     henyey_greenstein,
 )
 
@@ -274,6 +275,9 @@ class _Traced(ea._Traced):
             else:
                 shadow = self.transmittance_along(p, d, length)
             weight = henyey_greenstein(dr.dot(d, view), self.g) * shadow * falloff
+            light = self.lights[index][0]
+            if isinstance(light, SpotLight):  # the light shines along its axis toward −d
+                weight = weight * light.factor(-dr.dot(d, m.Array3f(*light.direction)), dr.clip)
             out = dr.fma(m.Array3f(*(float(v) for v in xyz)), weight, out)
         return out
 
@@ -376,7 +380,11 @@ class _Reference(ea._Reference):
             else:
                 shadow = self.transmittance_along(p, d, length)
             cos = np.einsum("ij,ij->i", view, d)
-            out += (henyey_greenstein(cos, g) * shadow * falloff)[:, None] * xyz
+            weight = henyey_greenstein(cos, g) * shadow * falloff
+            light = self.lights[index][0]
+            if isinstance(light, SpotLight):
+                weight = weight * light.factor(-(d @ np.asarray(light.direction)), np.clip)
+            out += weight[:, None] * xyz
         return out
 
     def emitted(self, kappa, temp, sampled, emits) -> NDArray:
