@@ -122,12 +122,32 @@ def render_scene(
         return render(volume, camera, settings, backend, limits, progress, integrator=integrator)
 
     image = with_layers(frame, integrator) if out.layers else frame(integrator)
+    if out.denoise:
+        image = denoised(image)
     with all_or_nothing():  # the image and its stats, or neither
         written = [save_image(image, out.path, scene.display_settings(), out.overwrite)]
         if out.stats is not None:
             stats = image_stats(image, start)
             written.append(write_json(out.stats, stats, overwrite=out.overwrite))
     return image, written
+
+
+def denoised(image: HDRImage) -> HDRImage:
+    """``image`` through OIDN (``imaging.denoise``) in its RGB space, back to XYZ; the
+    metadata names the denoiser."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from incandescent.colorimetry import rgb_to_xyz
+    from incandescent.imaging.denoise import DENOISER, denoise_rgb
+
+    if image.xyz is None:
+        raise ValueError(
+            "denoising needs a physical (XYZ) render, not the 2011 paper's display RGB"
+        )
+    xyz = rgb_to_xyz(denoise_rgb(image.rgb(), image.luminance), image.space).astype(np.float32)
+    return replace(image, xyz=xyz, metadata={**image.metadata, "denoised": DENOISER})
 
 
 def image_stats(image: HDRImage, start: float) -> dict:

@@ -402,3 +402,41 @@ def test_environment_maps_from_files_flags_and_their_bad_inputs(tmp_path):
         EnvironmentMap(np.zeros((8, 16, 3), np.int32))
     with pytest.raises(ValueError, match="scale must be >= 0"):
         EnvironmentMap(np.zeros((8, 16, 3)), scale=-1.0)
+
+
+def test_denoising_a_one_path_render_brings_it_nearer_the_converged_one(tmp_path):
+    """OIDN (``render --denoise``) on the fire-lit cloud at 1 path per sample: the per-pixel
+    error against 16 paths falls from 17.6 % to 7.5 % (measured); the total stays within 5 %
+    (measured −2.4 %: a learned filter, not an estimator — hence never by default); the EXR says
+    it was denoised; with layers, one clear line."""
+    pytest.importorskip("pyoidn", reason="the denoise extra (pyoidn) is not installed")
+    from typer.testing import CliRunner
+
+    from incandescent import api
+    from incandescent.cli import app
+    from incandescent.scenes import synthetic
+
+    volume, camera = _pbrt_d2()
+    settings = inc.RenderSettings(width=64, height=64)
+    noisy, good = (
+        inc.render(volume, camera, settings, "cpu",
+                   integrator=MultipleScattering(lights=(EmissionLight(),), spp=spp))
+        for spp in (1, 16)
+    )  # fmt: skip
+    smooth = api.denoised(noisy)
+    bright = good.luminance > 0.01 * good.luminance.max()
+
+    def error(image):
+        diff = (image.luminance - good.luminance)[bright] / good.luminance[bright]
+        return float(np.sqrt(np.mean(diff**2)))
+
+    assert error(smooth) < 0.6 * error(noisy)
+    assert smooth.luminance.sum() / good.luminance.sum() == pytest.approx(1.0, abs=0.05)
+    np.save(tmp_path / "gas.npy", synthetic.plume_temperature(16))
+    base = ["render", str(tmp_path / "gas.npy"), "--width", "8", "--height", "8", "--albedo",
+            "0.5", "--fire-light", "--denoise"]  # fmt: skip
+    result = CliRunner().invoke(app, [*base, "-o", str(tmp_path / "a.exr")])
+    assert result.exit_code == 0, result.output
+    assert "Open Image Denoise" in read_exr(tmp_path / "a.exr")[1]["denoised"]
+    bad = CliRunner().invoke(app, [*base, "--layers", "-o", str(tmp_path / "b.exr")])
+    assert bad.exit_code == 2 and "not both" in bad.output, bad.output

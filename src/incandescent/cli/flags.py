@@ -418,10 +418,13 @@ PLATE_SIZE, FIRE_SIZE = (320, 240), (320, 480)
 SCENE_SOURCE = Flag("source", Path, "A volume file (.npy .npz .vdb .nvdb .h5 .hdf5 .nc) or a "
                     "scene file (.toml, .json) whose values the options below override.",
                     default=..., argument=True)
+DENOISE = Flag("denoise", bool, "Denoise the image with Intel Open Image Denoise (a preview: "
+                "no longer an unbiased estimate; needs incandescent[denoise]).", "output.denoise",
+                default=False)
 LAYERS = Flag("layers", bool, "EXR layers emission, scatter.direct, scatter.indirect and one per "
                "light (a scattering render; 3 + lights renders).", "output.layers", default=False)
-RENDER = (SCENE_SOURCE, OUTPUT, LAYERS, FILM, VOLUME, EMITTERS, LIGHTING, CAMERA, INTEGRATOR,
-          DISPLAY, BLUR, FPS, LIMITS)
+RENDER = (SCENE_SOURCE, OUTPUT, LAYERS, DENOISE, FILM, VOLUME, EMITTERS, LIGHTING, CAMERA,
+          INTEGRATOR, DISPLAY, BLUR, FPS, LIMITS)
 DEMO = (
     Flag("name", str, f"Scene: {', '.join(DEMOS)}.", default="fire", argument=True),
     Flag("output", Path, "Output: .png/.exr for images (default NAME.png); .mp4, .gif or a "

@@ -436,13 +436,15 @@ class DisplaySection(_Section):
 
 class OutputSection(_Section):
     """Where results go; ``backend`` is ``auto`` or one of the render backends; ``layers``: the
-    scattering render's compositing layers in the EXR (``renderer.layers``)."""
+    scattering render's compositing layers in the EXR (``renderer.layers``); ``denoise``: OIDN
+    on the image written (``imaging.denoise``; a preview, no longer an unbiased estimate)."""
 
     path: Path | None = None
     overwrite: bool = False
     stats: Path | None = None
     backend: str = "auto"
     layers: bool = False
+    denoise: bool = False
 
     @model_validator(mode="after")
     def _check(self) -> OutputSection:
@@ -452,6 +454,9 @@ class OutputSection(_Section):
             )
         if self.layers and self.path is not None and self.path.suffix.lower() != ".exr":
             raise _fail(f"layers are EXR layers: give an .exr output; got {self.path}")
+        if self.layers and self.denoise:
+            raise _fail("denoise the beauty or write layers, not both (denoised layers would not "
+                        "add up to the denoised beauty)")  # fmt: skip
         return self
 
 
