@@ -314,3 +314,54 @@ def test_a_spot_light_is_a_point_light_inside_its_cone_and_dark_outside():
         SpotLight(at, cone_deg=10.0, falloff_deg=20.0)
     with pytest.raises(ValueError, match="needs a direction"):
         SpotLight(at, direction=(0.0, 0.0, 0.0))
+
+
+def _sphere_expected(px, radius, sigma_t, sigma_s, phase, lux):
+    """Single scattering of a sun along +x by a homogeneous sphere, seen along −z through
+    (x₀, y₀): ∫ σ_s p E e^{−σ_t (z_top − z)} e^{−σ_t l(z)} dz, l = −x₀ + √(R² − y₀² − z²) the
+    path to the surface toward the sun (4001-point trapezoid)."""
+    out = np.zeros((px.size, px.size))
+    for i, y0 in enumerate(px[::-1]):
+        for j, x0 in enumerate(px):
+            r2 = radius**2 - x0**2 - y0**2
+            if r2 <= 0:
+                continue
+            top = np.sqrt(r2)
+            z = np.linspace(-top, top, 4001)
+            path = -x0 + np.sqrt(np.maximum(radius**2 - y0**2 - z**2, 0.0))
+            f = sigma_s * phase * lux * np.exp(-sigma_t * (top - z) - sigma_t * path)
+            out[i, j] = np.trapezoid(f, z)
+    return out
+
+
+@pytest.mark.parametrize("shadows", ["march", "grid"])
+def test_a_sunlit_homogeneous_sphere_matches_the_closed_form(shadows):
+    """A sphere of R = 20 cm (σ_a 0.5, σ_s 2 per m, g = 0.3; optical diameter 1) in 1 cm voxels
+    (each voxel its covered fraction), a 1000 lux sun from +x, seen face on: pixels whose rays
+    pass ≥ 3 voxels inside the rim within 1 % of the transfer integral (measured 0.42 %
+    marched, 0.48 % with the shadow grid; median 1.00001); the sun mirrored to −x is far off."""
+    n, h, radius = 48, 0.01, 0.2
+    axis = (np.arange(n * 4) + 0.5) / 4 * h - n * h / 2
+    x, y, z = np.meshgrid(axis, axis, axis, indexing="ij")
+    inside = (x**2 + y**2 + z**2 < radius**2).reshape(n, 4, n, 4, n, 4).mean(axis=(1, 3, 5))
+    kappa, sigma, g = 0.5, 2.0, 0.3
+    gas = inc.Volume.from_arrays(np.full(inside.shape, 300.0), absorption=kappa * inside,
+                                 voxel_size_m=h)  # fmt: skip
+    cold = gas.with_scattering(sigma * inside, phase_g=g)
+    camera = inc.Camera(eye=(0.0, 0.0, 1.0), projection="orthographic", ortho_height_m=n * h)
+    settings = inc.RenderSettings(width=24, height=24, jitter=False)
+    unlit = inc.render(cold, camera, settings, "cpu", integrator=SingleScattering()).luminance
+
+    def scattered(direction):
+        sun = DirectionalLight(direction, 1000.0, None)
+        lit = SingleScattering(lights=(sun,), shadows=shadows)
+        return inc.render(cold, camera, settings, "cpu", integrator=lit).luminance - unlit
+
+    px = (np.arange(24) + 0.5) / 24 * n * h - n * h / 2
+    expected = _sphere_expected(px, radius, kappa + sigma, sigma, henyey_greenstein(0.0, g), 1e3)
+    gx, gy = np.meshgrid(px, px[::-1])
+    deep = np.hypot(gx, gy) < radius - 3 * h
+    ratio = scattered((1.0, 0.0, 0.0))[deep] / expected[deep]
+    assert np.abs(ratio - 1).max() < 0.01
+    mirrored = scattered((-1.0, 0.0, 0.0))[deep] / expected[deep]
+    assert np.abs(mirrored - 1).max() > 0.2
