@@ -6,6 +6,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from incandescent.budget import Limits
 from incandescent.camera import Camera, default_camera
 from incandescent.config.assemble import load_volume, volume_from_section
@@ -104,7 +106,8 @@ def render_scene(
         raise ValueError("no output: give -o OUT.exr|.png or [output] path in the scene file")
     table = scene.emission.line_table
     inputs = [source, scene.volume.path, *([] if table is None else [Path(table)])]
-    check_image_outputs(out.path, out.stats, out.overwrite, inputs)
+    continuing = out.accumulate and out.path.exists()
+    check_image_outputs(out.path, out.stats, out.overwrite or continuing, inputs)
     integrator = scene.render_integrator()
     if out.layers and not isinstance(integrator, SingleScattering):
         raise ValueError(
@@ -118,9 +121,11 @@ def render_scene(
     start = time.perf_counter()
     camera = scene.camera_for(volume)  # type: ignore[arg-type]  # a SparseVolume has its bounds too
 
-    def frame(integrator):
+    def frame(integrator, settings=settings):
         return render(volume, camera, settings, backend, limits, progress, integrator=integrator)
 
+    if out.accumulate or out.batches > 1:
+        return _accumulate(scene, frame, integrator, settings, start)
     image = with_layers(frame, integrator) if out.layers else frame(integrator)
     if out.denoise:
         image = denoised(image)
@@ -132,12 +137,89 @@ def render_scene(
     return image, written
 
 
+#: Successive batches of an accumulated render take seeds this far apart (mod 2³¹).
+BATCH_SEED_STRIDE = 0x2545F491
+
+
+def scene_fingerprint(scene: Scene) -> str:
+    """What must not change between batches of an accumulated render: the scene without its
+    ``[output]`` and the render's seed (SHA-256 of its JSON)."""
+    import hashlib
+    import json
+
+    data = scene.model_dump(mode="json", exclude={"output"})
+    data["render"].pop("seed", None)
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _prior_batches(scene: Scene, fingerprint: str) -> tuple[HDRImage | None, int]:
+    """(the accumulated image in ``[output] path`` and its number of batches) to continue, or
+    (None, 0); refused, naming the file, when it was rendered from another scene."""
+    from incandescent.colorimetry import rgb_to_xyz
+    from incandescent.io.images import read_exr
+
+    path = scene.output.path
+    if not (scene.output.accumulate and path is not None and path.exists()):
+        return None, 0
+    if path.suffix.lower() != ".exr":
+        raise ValueError(f"{path}: an accumulated render continues an .exr (its linear values)")
+    rgb, meta, extra = read_exr(path)
+    if meta.get("accumulate_fingerprint") != fingerprint:
+        raise ValueError(
+            f"{path}: not an accumulated render of this scene and settings (seed aside); give "
+            "another output, or --overwrite without --accumulate"
+        )
+    space = meta.get("colour_space", "srgb")
+    xyz = rgb_to_xyz(rgb, space).astype(np.float32)
+    prior = HDRImage(xyz, (1.0 - extra["A"]).astype(np.float32), space, dict(meta))
+    return prior, int(meta["accumulate_batches"])
+
+
+def _combined(prior: HDRImage | None, batch: HDRImage, done: int) -> HDRImage:
+    """The mean of ``done`` batches (``prior``) and one more (equal weights: equal samples)."""
+    from dataclasses import replace
+
+    if prior is None or done == 0:
+        return batch
+    w = 1.0 / (done + 1)
+    xyz = (prior.scene_xyz * (1 - w) + batch.scene_xyz * w).astype(np.float32)
+    tr = (prior.transmittance * (1 - w) + batch.transmittance * w).astype(np.float32)
+    return replace(batch, xyz=xyz, transmittance=tr)
+
+
+def _accumulate(scene: Scene, frame, integrator, settings, start: float):
+    """``[output] batches`` more batches of the render, each with the next seed, averaged into
+    the output EXR (continuing the file there with ``accumulate``) and written after each batch:
+    an interrupted run keeps its finished batches."""
+    from dataclasses import replace
+
+    out = scene.output
+    assert out.path is not None, "render_scene checked the output"
+    if out.layers or out.denoise:
+        raise ValueError("accumulated renders write the plain image: not with layers or denoise")
+    fingerprint = scene_fingerprint(scene)
+    image, done = _prior_batches(scene, fingerprint)
+    spp = int(getattr(integrator, "spp", 1))
+    written: list[Path] = []
+    for _ in range(out.batches):
+        seed = (settings.seed + done * BATCH_SEED_STRIDE) % 2**31
+        batch = frame(integrator, replace(settings, seed=seed))
+        image, done = _combined(image, batch, done), done + 1
+        meta = {"accumulate_fingerprint": fingerprint, "accumulate_batches": done,
+                "accumulate_seeds": f"{settings.seed} + k·{BATCH_SEED_STRIDE}, k < {done}",
+                "spp_total": done * spp}  # fmt: skip
+        image = replace(image, metadata={**image.metadata, **meta})
+        written = [save_image(image, out.path, scene.display_settings(), overwrite=True)]
+    assert image is not None, "batches >= 1"
+    if out.stats is not None:
+        written.append(write_json(out.stats, image_stats(image, start), overwrite=True))
+    return image, written
+
+
 def denoised(image: HDRImage) -> HDRImage:
     """``image`` through OIDN (``imaging.denoise``) in its RGB space, back to XYZ; the
     metadata names the denoiser."""
     from dataclasses import replace
-
-    import numpy as np
 
     from incandescent.colorimetry import rgb_to_xyz
     from incandescent.imaging.denoise import DENOISER, denoise_rgb

@@ -421,10 +421,16 @@ SCENE_SOURCE = Flag("source", Path, "A volume file (.npy .npz .vdb .nvdb .h5 .hd
 DENOISE = Flag("denoise", bool, "Denoise the image with Intel Open Image Denoise (a preview: "
                 "no longer an unbiased estimate; needs incandescent[denoise]).", "output.denoise",
                 default=False)
+ACCUMULATE = (
+    Flag("batches", int, "Render N batches of samples (seeds apart), averaged, the output "
+         "written after each [1].", "output.batches"),
+    Flag("accumulate", bool, "Continue the output .exr: average more batches into it (the same "
+         "scene and settings, seed aside).", "output.accumulate", default=False),
+)
 LAYERS = Flag("layers", bool, "EXR layers emission, scatter.direct, scatter.indirect and one per "
                "light (a scattering render; 3 + lights renders).", "output.layers", default=False)
-RENDER = (SCENE_SOURCE, OUTPUT, LAYERS, DENOISE, FILM, VOLUME, EMITTERS, LIGHTING, CAMERA,
-          INTEGRATOR, DISPLAY, BLUR, FPS, LIMITS)
+RENDER = (SCENE_SOURCE, OUTPUT, LAYERS, DENOISE, ACCUMULATE, FILM, VOLUME, EMITTERS, LIGHTING,
+          CAMERA, INTEGRATOR, DISPLAY, BLUR, FPS, LIMITS)
 DEMO = (
     Flag("name", str, f"Scene: {', '.join(DEMOS)}.", default="fire", argument=True),
     Flag("output", Path, "Output: .png/.exr for images (default NAME.png); .mp4, .gif or a "

@@ -437,7 +437,9 @@ class DisplaySection(_Section):
 class OutputSection(_Section):
     """Where results go; ``backend`` is ``auto`` or one of the render backends; ``layers``: the
     scattering render's compositing layers in the EXR (``renderer.layers``); ``denoise``: OIDN
-    on the image written (``imaging.denoise``; a preview, no longer an unbiased estimate)."""
+    on the image written (``imaging.denoise``; a preview, no longer an unbiased estimate);
+    ``batches``: render that many batches of samples (each with the next seed) and average
+    them, writing after each; ``accumulate``: continue the output EXR's batches."""
 
     path: Path | None = None
     overwrite: bool = False
@@ -445,6 +447,8 @@ class OutputSection(_Section):
     backend: str = "auto"
     layers: bool = False
     denoise: bool = False
+    accumulate: bool = False
+    batches: int = Field(default=1, ge=1)
 
     @model_validator(mode="after")
     def _check(self) -> OutputSection:
@@ -454,6 +458,8 @@ class OutputSection(_Section):
             )
         if self.layers and self.path is not None and self.path.suffix.lower() != ".exr":
             raise _fail(f"layers are EXR layers: give an .exr output; got {self.path}")
+        if self.accumulate and self.path is not None and self.path.suffix.lower() != ".exr":
+            raise _fail(f"an accumulated render continues an .exr; got {self.path}")
         if self.layers and self.denoise:
             raise _fail("denoise the beauty or write layers, not both (denoised layers would not "
                         "add up to the denoised beauty)")  # fmt: skip
