@@ -92,7 +92,12 @@ def test_unknown_preset_and_options():
         apply_preset("hudini", {})
     with pytest.raises(ValueError, match="has no option 'ambient'; did you mean 'ambient_K'"):
         preset_parameters("houdini", {"ambient": 290.0})
-    assert preset_parameters("blender") == {"ignition": 1.5, "max_temp": 3.0, "density_scale": 1.0}
+    assert preset_parameters("blender") == {
+        "ignition": 1.5,
+        "max_temp": 3.0,
+        "density_scale": 1.0,
+        "smoke_albedo": 0.5,
+    }
 
 
 def test_every_preset_is_documented():

@@ -370,8 +370,9 @@ def _bounces(bounces: int | None, out: dict) -> None:
     table["type"] = kind
     if bounces >= 2:
         table["max_bounces"] = bounces
-    if bounces == 0:
+    if bounces == 0:  # today's image: no lights, nothing to sample
         out["light"] = []
+        table.pop("spp", None)
 
 
 def overrides(given: Given) -> dict:

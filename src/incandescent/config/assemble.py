@@ -13,7 +13,12 @@ from incandescent.budget import Limits
 from incandescent.config.schema import GridNames, VolumeSection
 from incandescent.io.volumes import DENSE_READ_BYTES_PER_VOXEL, open_grids
 from incandescent.volume.grid import Remap, Volume
-from incandescent.volume.presets import apply_preset, resolve_grid_name
+from incandescent.volume.presets import (
+    PRESET_SCATTERING,
+    apply_preset,
+    preset_parameters,
+    resolve_grid_name,
+)
 from incandescent.volume.sparse import AUTO_SPARSE_FRACTION, LEAF, SparseVolume
 
 OPTIONAL_ROLES = ("absorption", "emission_scale", "sodium_fraction")
@@ -95,13 +100,19 @@ def volume_from_section(
 
 def _scattering_grid(spec: VolumeSection) -> set[str]:
     """The name of the σ_s grid the section names (``scattering = "grid"``), if any."""
-    return {spec.scattering} if isinstance(spec.scattering, str) else set()
+    name = spec.scattering
+    return {name} if isinstance(name, str) and name != PRESET_SCATTERING else set()
 
 
 def _scattering(volume: Volume, spec: VolumeSection, grids) -> Volume:
-    """``volume`` with the section's σ_s (a constant, a grid of the file, or the albedo)."""
+    """``volume`` with the section's σ_s (a constant, a grid of the file, the albedo, or the
+    preset's smoke rule: κ split into scattering and absorption, ``volume.presets``)."""
     if spec.scattering is None and spec.albedo is None:
         return volume
+    if spec.scattering == PRESET_SCATTERING:
+        assert spec.preset is not None, "the schema checks that a preset is named"
+        albedo = preset_parameters(spec.preset, spec.preset_options)["smoke_albedo"]
+        return volume.with_extinction_split(albedo, spec.phase_g)
     value = grids[spec.scattering] if isinstance(spec.scattering, str) else spec.scattering
     return volume.with_scattering(value, spec.albedo, spec.phase_g)
 

@@ -216,7 +216,10 @@ class VolumeSection(_Section):
 def _scattering_problem(section: VolumeSection) -> None:
     """σ_s, albedo and g checked as ``Volume.with_scattering`` checks them (on one voxel)."""
     if isinstance(section.scattering, str) and section.albedo is not None:
-        raise _fail("give scattering (1/m, or a grid name) or albedo, not both")
+        raise _fail('give scattering (1/m, a grid name or "preset") or albedo, not both')
+    if section.scattering == "preset" and section.preset is None:
+        raise _fail('scattering = "preset" splits a preset\'s smoke: name the preset (blender, '
+                    "houdini, embergen)")  # fmt: skip
     constant = None if isinstance(section.scattering, str) else section.scattering
     one = Volume.from_arrays(np.ones((1, 1, 1)), absorption=1.0, source="volume")
     try:

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from incandescent import _validate
 from incandescent._parallel import map_slabs
 from incandescent.volume.macrocells import MacrocellGrid, build_macrocells
 from incandescent.volume.remap import Remap
@@ -262,6 +263,17 @@ class Volume(Placed):
             scattering_per_m, albedo, self.absorption_per_m, self.shape, "volume"
         )
         return self.replace(scattering_per_m=sigma, phase_g=phase_g)
+
+    def with_extinction_split(self, albedo: float, phase_g: float = 0.0) -> Volume:
+        """A copy whose κ is read as the extinction σ_t and split into scattering σ_s = α·σ_t
+        and absorption (1 − α)·σ_t (how a DCC's smoke density becomes both: Cycles' Principled
+        Volume, ``volume.presets``); Henyey–Greenstein asymmetry ``phase_g``."""
+        alpha = _validate.finite_scalar(albedo, "smoke albedo")
+        if not 0.0 <= alpha < 1.0:
+            raise ValueError(f"smoke albedo must be in [0, 1); got {albedo!r}")
+        extinction = self.absorption_per_m
+        split = self.replace(absorption_per_m=(extinction * (1.0 - alpha)).astype(np.float32))
+        return split.with_scattering(extinction * alpha, phase_g=phase_g)
 
     def macrocells(
         self,

@@ -41,6 +41,14 @@ Presets (parameters in brackets, with their defaults; override them with ``param
     mapping as ``houdini``, ``T = ambient_K + kelvin_per_unit · temperature`` [300 K, 1000 K],
     κ = ``density_scale`` · smoke [1.0]. Source: JangaFX EmberGen documentation, export channels.
 
+**Lit smoke** (``[volume] scattering = "preset"``, ``--scattering preset``): the preset's κ is
+then read as the smoke's *extinction* and split into scattering σ_s = ``smoke_albedo`` · κ and
+absorption (1 − ``smoke_albedo``) · κ [0.5]. For ``blender`` this is Cycles' and EEVEE's
+Principled Volume at its defaults: σ_s = Color · density, σ_a = (1 − Color)(1 − √Absorption
+Color) · density, Color 0.5 and Absorption Color black (Blender,
+``source/blender/gpu/shaders/material/gpu_shader_material_volume_principled.glsl``). For
+``houdini`` and ``embergen`` it is our convention (the same split).
+
 Use a preset's ``parameters`` (or the scene's ``volume.preset_options``) when a cache was made
 with other domain settings; use ``volume.temperature`` (offset/scale or range) for anything else.
 """
@@ -69,6 +77,8 @@ ROLE_ALIASES: dict[str, tuple[str, ...]] = {
 }
 ROLES: tuple[str, ...] = tuple(ROLE_ALIASES)
 
+#: ``[volume] scattering`` value asking for the preset's smoke rule (not a grid name).
+PRESET_SCATTERING = "preset"
 #: Below this maximum, a grid named like a temperature is probably not in kelvin, K.
 KELVIN_PLAUSIBLE_MAX_K = 300.0
 #: Cycles' flame threshold: voxels with flame at or below it do not emit.
@@ -114,7 +124,12 @@ def _normalised_kelvin(temperature: NDArray[np.float64], p: Params) -> NDArray[n
     return np.maximum(p["ambient_K"] + p["kelvin_per_unit"] * temperature, 0.0)
 
 
-_NORMALISED = {"ambient_K": 300.0, "kelvin_per_unit": 1000.0, "density_scale": 1.0}
+_NORMALISED = {
+    "ambient_K": 300.0,
+    "kelvin_per_unit": 1000.0,
+    "density_scale": 1.0,
+    "smoke_albedo": 0.5,
+}
 _NORMALISED_FORMULA = "T = {ambient_K:g} K + {kelvin_per_unit:g} K · {grid} (clamped at 0 K)"
 
 PRESETS: dict[str, Preset] = {
@@ -122,7 +137,7 @@ PRESETS: dict[str, Preset] = {
         "blender",
         "Blender Mantaflow: temperature from the flame grid, as Cycles renders it",
         "flame",
-        {"ignition": 1.5, "max_temp": 3.0, "density_scale": 1.0},
+        {"ignition": 1.5, "max_temp": 3.0, "density_scale": 1.0, "smoke_albedo": 0.5},
         _blender_kelvin,
         "T = 1000 K · ({ignition:g} + {grid} · ({max_temp:g} − {ignition:g})) where {grid} > 0.01",
     ),
