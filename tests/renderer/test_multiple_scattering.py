@@ -14,6 +14,7 @@ from test_emission_light import _blob, _blocks, _pbrt_d2
 import incandescent as inc
 from incandescent.io.images import read_exr
 from incandescent.renderer.integrators import MultipleScattering, SingleScattering
+from incandescent.renderer.integrators import emission_light as el
 from incandescent.renderer.integrators import environment_map as env
 from incandescent.renderer.lights import (
     DirectionalLight,
@@ -321,7 +322,7 @@ def _patch_map(height=32, radiance=5e5) -> tuple[EnvironmentMap, np.ndarray, flo
     theta = np.pi * (np.arange(height) + 0.5) / height
     solid = (2 * np.pi / (2 * height)) * (np.pi / height) * np.sin(theta[rows])
     illuminance = radiance * 2 * solid.sum()
-    centre = env.direction(41 / (2 * height), 5 / height, env.NUMPY)
+    centre = env.direction(41 / (2 * height), 5 / height, el.NUMPY_OPS)
     return EnvironmentMap(rgb), np.array(centre), illuminance
 
 

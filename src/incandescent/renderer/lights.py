@@ -172,7 +172,10 @@ class EnvironmentMap:
         if not np.isfinite(rgb).all() or (rgb < 0).any():
             raise ValueError(f"{where}: its values must be finite and >= 0")
         object.__setattr__(self, "radiance_rgb", rgb)
-        _check_amount(self, "scale")
+        scale = _validate.finite_scalar(self.scale, "scale")
+        if scale < 0:
+            raise ValueError(f"scale must be >= 0; got {self.scale!r}")
+        object.__setattr__(self, "scale", float(scale))
 
     @classmethod
     def from_file(cls, path, scale: float = 1.0) -> EnvironmentMap:
@@ -189,10 +192,6 @@ class EnvironmentMap:
 
         return rgb_to_xyz(self.radiance_rgb, "srgb") * self.scale
 
-    @property
-    def temperature_K(self) -> None:
-        return None
-
     def __repr__(self) -> str:
         h, w, _ = self.radiance_rgb.shape
         return f"EnvironmentMap({self.source}, {w}×{h}, scale={self.scale:g})"
@@ -202,8 +201,6 @@ class EnvironmentMap:
 FixedLight = DirectionalLight | PointLight
 #: A light the scattering integrators take.
 Light = DirectionalLight | PointLight | EmissionLight | EnvironmentLight | EnvironmentMap
-#: The lights a scattering integrator samples by Monte Carlo.
-SampledLight = EmissionLight | EnvironmentLight | EnvironmentMap
 
 
 def _check_amount(light, name: str) -> None:

@@ -21,7 +21,7 @@ One sample of each, combined by the balance heuristic (Veach 1997, thesis §9.2)
 
     Ĵ = Σ_{s ∈ {L, P}} p_HG(ω_s·d) L_e(p, ω_s) / (pdf_L(ω_s) + p_HG(ω_s·d)),
 
-averaged over ``samples`` pairs: unbiased wherever either pdf is positive — the phase pdf is,
+averaged over ``spp`` pairs: unbiased wherever either pdf is positive — the phase pdf is,
 everywhere — so a cell the power misses only costs noise. The power that guides the sampling
 is κ·Y(T) (the first table's luminance, times the emission scale) at voxel centres, dilated by
 one voxel (trilinear interpolation reaches that far) and summed per cell. Random numbers are a
@@ -51,19 +51,22 @@ ISOTROPIC_G = 1e-3
 DIMENSIONS = 6
 #: Salts of the hash: the render's seed, the sample index, each dimension and the bounce.
 _KEY_SALT, _SAMPLE_MUL, _DIM_ADD, _BOUNCE_MUL = 0x2545F491, 0x9E3779B9, 0x6A09E667, 0x85EBCA6B
-#: The emission march stops once the optical depth exceeds this (e^−40 ≈ 4e-18).
+#: The emission march stops once the optical depth exceeds this (e^−40 ≈ 4e-18), as shadows do.
 MAX_DEPTH = 40.0
 
+#: The operations the direction samplers (here and ``environment_map``) need, from NumPy.
 NUMPY_OPS = SimpleNamespace(
-    sqrt=np.sqrt, maximum=np.maximum, cos=np.cos, sin=np.sin, select=np.where
-)
+    sqrt=np.sqrt, maximum=np.maximum, minimum=np.minimum, cos=np.cos, sin=np.sin,
+    select=np.where, arccos=np.arccos, arctan2=np.arctan2,
+)  # fmt: skip
 
 
 def drjit_ops(dr) -> SimpleNamespace:
-    """The operations :func:`sample_henyey_greenstein` needs, from Dr.Jit."""
+    """:data:`NUMPY_OPS` from Dr.Jit."""
     return SimpleNamespace(
-        sqrt=dr.sqrt, maximum=dr.maximum, cos=dr.cos, sin=dr.sin, select=dr.select
-    )
+        sqrt=dr.sqrt, maximum=dr.maximum, minimum=dr.minimum, cos=dr.cos, sin=dr.sin,
+        select=dr.select, arccos=dr.acos, arctan2=dr.atan2,
+    )  # fmt: skip
 
 
 # --- what both backends share -------------------------------------------------------------------

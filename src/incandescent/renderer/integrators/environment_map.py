@@ -13,8 +13,6 @@ stream of their own (``MAP_SALT``), so adding a map leaves every other sample un
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -41,15 +39,6 @@ def coordinates(w, ops) -> tuple:
     theta = ops.arccos(y)
     u = ops.arctan2(w[0], -w[2]) * (0.5 / np.pi) + 0.5
     return u, theta * (1.0 / np.pi), ops.sin(theta)
-
-
-NUMPY = SimpleNamespace(sin=np.sin, cos=np.cos, minimum=np.minimum, maximum=np.maximum,
-                        arccos=np.arccos, arctan2=np.arctan2)  # fmt: skip
-
-
-def drjit_ops(dr) -> SimpleNamespace:
-    return SimpleNamespace(sin=dr.sin, cos=dr.cos, minimum=dr.minimum, maximum=dr.maximum,
-                           arccos=dr.acos, arctan2=dr.atan2)  # fmt: skip
 
 
 class MapTables:
@@ -82,7 +71,7 @@ class TracedEnvironmentMap:
         self.xyz = [m.Float(t.xyz[:, a].astype(np.float32)) for a in range(3)]
         self.probability = m.Float(t.probability.astype(np.float32))
         self.cdf = m.Float(t.cdf.astype(np.float32))
-        self.ops, self.hg = drjit_ops(self.K.dr), el.drjit_ops(self.K.dr)
+        self.ops = el.drjit_ops(self.K.dr)
 
     def pixel(self, w):
         """Traced: (flat pixel index, sin θ) of directions w."""
@@ -103,7 +92,7 @@ class TracedEnvironmentMap:
             *direction((col + u[1]) / t.width, (row + u[2]) / t.height, self.ops)
         )
         g = self.program.g
-        toward_phase = m.Array3f(*el.sample_henyey_greenstein(u[3], u[4], d, g, self.hg))
+        toward_phase = m.Array3f(*el.sample_henyey_greenstein(u[3], u[4], d, g, self.ops))
         out = m.Array3f(0.0)
         for w in (toward_map, toward_phase):
             index, sin = self.pixel(w)
@@ -131,12 +120,14 @@ class ReferenceEnvironmentMap:
         t, g = self.tables, float(self.inputs.volume.phase_g)
         i = np.minimum(np.searchsorted(t.cdf, u[0], side="right"), t.cdf.size - 1)
         col, row = i % t.width, i // t.width
-        toward_map = np.stack(direction((col + u[1]) / t.width, (row + u[2]) / t.height, NUMPY), 1)
+        toward_map = np.stack(
+            direction((col + u[1]) / t.width, (row + u[2]) / t.height, el.NUMPY_OPS), 1
+        )
         toward_phase = np.stack(el.sample_henyey_greenstein(u[3], u[4], d.T, g, el.NUMPY_OPS), 1)
         shape = np.asarray(self.inputs.volume.shape, dtype=np.float64)
         out = np.zeros((len(p), 3))
         for w in (toward_map, toward_phase):
-            uu, vv, sin = coordinates(w.T, NUMPY)
+            uu, vv, sin = coordinates(w.T, el.NUMPY_OPS)
             col_w = np.minimum((np.maximum(uu * t.width, 0)).astype(np.int64), t.width - 1)
             row_w = np.minimum((np.maximum(vv * t.height, 0)).astype(np.int64), t.height - 1)
             index = row_w * t.width + col_w

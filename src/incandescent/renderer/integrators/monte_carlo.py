@@ -67,14 +67,15 @@ class TracedMonteCarlo:
     """The traced estimator: next events of the sampled lights at the camera ray's sample,
     and (``max_bounces`` ≥ 2) paths whose vertices see every light."""
 
-    def __init__(self, program, emitter, sky_xyz, spp: int, max_bounces: int, seed: int) -> None:
+    def __init__(self, program, lights, spp: int, max_bounces: int, seed: int) -> None:
+        """``lights``: (the emission light's estimator or None, the uniform skies' total XYZ or
+        None, the lat-long skies' estimators)."""
         self.program, self.K = program, program.kernel
-        self.emitter, self.spp, self.max_bounces = emitter, spp, max_bounces
+        self.emitter, sky_xyz, self.maps = lights
+        self.spp, self.max_bounces = spp, max_bounces
         self.sky = None if sky_xyz is None else [float(v) for v in sky_xyz]
         self.key = el.hash_key(seed)
         self.ops = el.drjit_ops(self.K.dr)
-        #: the lat-long skies' next events (``environment_map``), set by the program
-        self.maps: list = []
 
     def estimate(self, sigma_s):
         """Traced: σ_s × the mean over ``spp`` samples of the sampled part of J (XYZ per m)."""
@@ -208,12 +209,12 @@ class TracedMonteCarlo:
 class ReferenceMonteCarlo:
     """The float64 estimator: the same samples and paths as :class:`TracedMonteCarlo`."""
 
-    def __init__(self, program, emitter, sky_xyz, spp: int, max_bounces: int, seed: int) -> None:
+    def __init__(self, program, lights, spp: int, max_bounces: int, seed: int) -> None:
         self.program, self.inputs = program, program.inputs
-        self.emitter, self.spp, self.max_bounces = emitter, spp, max_bounces
+        self.emitter, sky_xyz, self.maps = lights
+        self.spp, self.max_bounces = spp, max_bounces
         self.sky = None if sky_xyz is None else np.asarray(sky_xyz, dtype=np.float64)
         self.key = el.hash_key(seed)
-        self.maps: list = []
 
     def estimate(self, p, sigma_s, d, ray_index, step) -> NDArray:
         """σ_s × the mean over ``spp`` samples at samples p (m, 3) of rays with unit directions

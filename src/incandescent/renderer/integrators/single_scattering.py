@@ -205,10 +205,10 @@ class _Traced(ea._Traced):
         maps = _maps(integrator)
         if cells is not None or sky is not None or maps or _paths(integrator):
             emitter = None if cells is None else TracedEmissionLight(self, cells)
+            skies = [TracedEnvironmentMap(self, sky_map) for sky_map in maps]
             self.sampled = TracedMonteCarlo(
-                self, emitter, sky, integrator.spp, integrator.max_bounces, kernel.seed
+                self, (emitter, sky, skies), integrator.spp, integrator.max_bounces, kernel.seed
             )
-            self.sampled.maps = [TracedEnvironmentMap(self, sky_map) for sky_map in maps]
         self.shadow_grids = None
         if integrator.shadows == "grid":
             self.shadow_grids = [self.transmittance_grid(i) for i in range(len(self.lights))]
@@ -328,11 +328,11 @@ class _Reference(ea._Reference):
         maps = _maps(integrator)
         if cells is not None or sky is not None or maps or _paths(integrator):
             emitter = None if cells is None else ReferenceEmissionLight(self, cells)
+            skies = [ReferenceEnvironmentMap(self, sky_map) for sky_map in maps]
             seed = inputs.settings.seed
             self.sampled = ReferenceMonteCarlo(
-                self, emitter, sky, integrator.spp, integrator.max_bounces, seed
+                self, (emitter, sky, skies), integrator.spp, integrator.max_bounces, seed
             )
-            self.sampled.maps = [ReferenceEnvironmentMap(self, sky_map) for sky_map in maps]
         self.shadow_grids = None
         if integrator.shadows == "grid":
             centres = np.indices(vol.shape, dtype=np.float64).reshape(3, -1).T + 0.5
