@@ -216,6 +216,8 @@ LIGHTING = (
     Flag("sun", str, "A sun: X,Y,Z,LUX — direction toward it and illuminance in lux (a "
          "single_scattering render).", "light", _sun),
     Flag("sun_temperature", float, "The sun's blackbody temperature in K [5778]."),
+    Flag("sun_diameter", float, "The sun's angular diameter in degrees (0.53: the real sun's; "
+         "soft shadows, 16 shadow directions) [0: a point, sharp shadows]."),
     Flag("environment", str, "A sky: FILE.exr (an HDR lat-long map, RGB × 1 = radiance in "
          "cd/m²) or a uniform luminance in cd/m²."),
     Flag("fire_light", bool, "The volume's own emission lights its smoke (sampled by power; a "
@@ -400,6 +402,10 @@ def overrides(given: Given) -> dict:
         if given.values.get("sun") is None:
             raise fail("--sun-temperature needs --sun X,Y,Z,LUX")
         out["light"][0]["temperature_K"] = given.values["sun_temperature"]
+    if given.values.get("sun_diameter") is not None:
+        if given.values.get("sun") is None:
+            raise fail("--sun-diameter needs --sun X,Y,Z,LUX")
+        out["light"][0]["angular_diameter_deg"] = given.values["sun_diameter"]
     if given.values.get("sodium") is not None:
         species = out.setdefault("volume", {}).setdefault("species", {})
         if "Na" in species:

@@ -333,16 +333,20 @@ def _environment_map(path: Path, scale: float) -> EnvironmentMap:
 
 
 class LightSection(_Section):
-    """One ``[[light]]``: ``type = "directional"`` (``direction`` toward it, ``illuminance_lux``)
-    or ``"point"`` (``position_m``, ``intensity_cd``) or ``"spot"`` (also ``direction`` it
-    shines along, ``cone_deg``, ``falloff_deg``), with ``temperature_K``; ``"environment"``
-    (a uniform sky: ``luminance_cd_m2``, ``temperature_K`` or flat), or ``"emission"`` (the
-    volume's own emission, no keys) (``renderer.lights``).
+    """One ``[[light]]``: ``type = "directional"`` (``direction`` toward it, ``illuminance_lux``
+    or ``radiance_cd_m2`` of a disk ``angular_diameter_deg`` wide, ``disk_samples``) or
+    ``"point"`` (``position_m``, ``intensity_cd``) or ``"spot"`` (also ``direction`` it shines
+    along, ``cone_deg``, ``falloff_deg``), with ``temperature_K``; ``"environment"`` (a uniform
+    sky: ``luminance_cd_m2``, ``temperature_K`` or flat), or ``"emission"`` (the volume's own
+    emission, no keys) (``renderer.lights``).
     """
 
     type: Literal["directional", "point", "spot", "environment", "emission"] = "directional"
     direction: Vec3 | None = None
     illuminance_lux: float = 1.0
+    radiance_cd_m2: float | None = None
+    angular_diameter_deg: float = 0.0
+    disk_samples: int = 16
     position_m: Vec3 | None = None
     intensity_cd: float = 1.0
     cone_deg: float = 30.0
@@ -354,7 +358,14 @@ class LightSection(_Section):
 
     #: the keys each type takes besides ``type``
     KEYS: ClassVar[dict[str, set[str]]] = {
-        "directional": {"direction", "illuminance_lux", "temperature_K"},
+        "directional": {
+            "direction",
+            "illuminance_lux",
+            "radiance_cd_m2",
+            "angular_diameter_deg",
+            "disk_samples",
+            "temperature_K",
+        },
         "point": {"position_m", "intensity_cd", "temperature_K"},
         "spot": {
             "position_m",
@@ -380,6 +391,9 @@ class LightSection(_Section):
             if clash:
                 raise _fail(f"an environment map's colour and level are its pixels × scale; "
                             f"got {', '.join(clash)} too")  # fmt: skip
+        if {"illuminance_lux", "radiance_cd_m2"} <= self.model_fields_set:
+            raise _fail("a directional light is given by illuminance_lux or radiance_cd_m2 "
+                        "(with angular_diameter_deg); got both")  # fmt: skip
         if self.type in ("emission", "environment"):
             _checked(self.light)
             return self
@@ -407,7 +421,11 @@ class LightSection(_Section):
             temperature = POINT_K if self.temperature_K is None else self.temperature_K
             return PointLight(self.position_m, self.intensity_cd, temperature)  # type: ignore[arg-type]
         temperature = SUN_K if self.temperature_K is None else self.temperature_K
-        return DirectionalLight(self.direction, self.illuminance_lux, temperature)  # type: ignore[arg-type]
+        disk = (self.angular_diameter_deg, self.disk_samples)
+        if self.radiance_cd_m2 is not None:
+            return DirectionalLight.from_radiance(self.direction, self.radiance_cd_m2,
+                                                  disk[0], temperature, disk[1])  # fmt: skip
+        return DirectionalLight(self.direction, self.illuminance_lux, temperature, *disk)  # type: ignore[arg-type]
 
 
 class DisplaySection(_Section):

@@ -24,17 +24,30 @@ from incandescent.spectra import blackbody_xyz
 SUN_K = 5778.0
 #: A point light's default: CIE illuminant A, a tungsten-filament lamp, K.
 POINT_K = 2856.0
+#: The sun's mean angular diameter seen from the Earth, degrees (0.5332°: 2 × 959.63″, IAU).
+SUN_DIAMETER_DEG = 0.5332
+#: Most directions a disk light is integrated over.
+MAX_DISK = 256
+#: π(3 − √5): the golden angle, radians (Vogel 1979's spiral).
+GOLDEN_ANGLE = np.pi * (3.0 - np.sqrt(5.0))
 
 
 @dataclass(frozen=True)
 class DirectionalLight:
     """Light from a distant source in ``direction`` (toward the light, world axes; normalised),
     ``illuminance_lux`` on a plane facing it, with a blackbody spectrum at ``temperature_K`` (None:
-    flat, equal-energy white)."""
+    flat, equal-energy white).
+
+    ``angular_diameter_deg`` 0 is a delta light (sharp shadows); above 0 the source is a disk of
+    uniform radiance that wide (the sun: 0.53°), integrated over ``disk_samples`` directions of
+    equal solid angle (:meth:`disk`), so shadows have penumbrae. :meth:`from_radiance` gives
+    such a disk by its luminance instead of its illuminance."""
 
     direction: tuple[float, float, float]
     illuminance_lux: float = 1.0
     temperature_K: float | None = SUN_K
+    angular_diameter_deg: float = 0.0
+    disk_samples: int = 16
 
     def __post_init__(self) -> None:
         d = np.asarray(self.direction, dtype=np.float64)
@@ -45,6 +58,57 @@ class DirectionalLight:
             )
         object.__setattr__(self, "direction", tuple(float(v) for v in d / np.linalg.norm(d)))
         _check_amount(self, "illuminance_lux")
+        diameter = _validate.finite_scalar(self.angular_diameter_deg, "angular_diameter_deg")
+        if not 0 <= diameter < 180:
+            raise ValueError(
+                f"a directional light's angular_diameter_deg must be in [0, 180); got "
+                f"{self.angular_diameter_deg!r}"
+            )
+        object.__setattr__(self, "angular_diameter_deg", float(diameter))
+        n = self.disk_samples
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or not 1 <= n <= MAX_DISK:
+            raise ValueError(f"disk_samples must be an integer in 1..{MAX_DISK}; got {n!r}")
+        object.__setattr__(self, "disk_samples", int(n))
+
+    @classmethod
+    def from_radiance(
+        cls,
+        direction,
+        radiance_cd_m2: float,
+        angular_diameter_deg: float,
+        temperature_K: float | None = SUN_K,
+        disk_samples: int = 16,
+    ) -> DirectionalLight:
+        """A disk of uniform luminance ``radiance_cd_m2`` (cd/m²) and ``angular_diameter_deg``:
+        its illuminance on a plane facing it is E = L·π·sin²δ, δ the angular radius (a uniform
+        disk's cosine-weighted solid angle). The sun's 1.6e9 cd/m² at 0.53° is ≈ 1.1e5 lux."""
+        radiance = _validate.finite_scalar(radiance_cd_m2, "radiance_cd_m2")
+        diameter = _validate.finite_scalar(angular_diameter_deg, "angular_diameter_deg")
+        if radiance < 0 or not 0 < diameter < 180:
+            raise ValueError(
+                "a sun given by its radiance needs radiance_cd_m2 >= 0 and 0 < "
+                f"angular_diameter_deg < 180; got {radiance_cd_m2!r} and {angular_diameter_deg!r}"
+            )
+        lux = radiance * np.pi * np.sin(np.radians(diameter / 2)) ** 2
+        return cls(direction, float(lux), temperature_K, float(diameter), disk_samples)
+
+    def disk(self) -> tuple[DirectionalLight, ...]:
+        """The light as delta lights: itself if it is one, else ``disk_samples`` directions of
+        equal solid angle Ω/N over the disk of angular radius δ (rings uniform in cos θ, turned
+        by the golden angle: a Vogel spiral on the cap), each giving L·Ω/N = E·2/(N(1 + cos δ))
+        — so Σ E_i cos θ_i = E, the illuminance on the plane facing the centre."""
+        if self.angular_diameter_deg == 0.0:
+            return (self,)
+        n, cos_delta = self.disk_samples, np.cos(np.radians(self.angular_diameter_deg / 2))
+        i = np.arange(n) + 0.5
+        cos_t = 1.0 - (1.0 - cos_delta) * i / n
+        sin_t, phi = np.sqrt(1.0 - cos_t**2), i * GOLDEN_ANGLE
+        d = np.asarray(self.direction)
+        u, v = _frame(d)
+        around = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * v
+        dirs = cos_t[:, None] * d + sin_t[:, None] * around
+        each = self.illuminance_lux * 2.0 / (n * (1.0 + cos_delta))
+        return tuple(DirectionalLight(tuple(x), each, self.temperature_K) for x in dirs)
 
     def irradiance_xyz(self) -> NDArray[np.float64]:
         """XYZ irradiance on a plane facing the light, Y = ``illuminance_lux``."""
@@ -220,6 +284,14 @@ def _chroma(temperature_K: float | None) -> NDArray[np.float64]:
         return np.ones(3)  # equal-energy white: x = y = z = 1/3
     xyz = blackbody_xyz(float(temperature_K))
     return xyz / xyz[1]
+
+
+def _frame(d: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Two unit vectors completing the unit ``d`` to a right-handed orthonormal frame."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(d, helper)
+    u /= np.linalg.norm(u)
+    return u, np.cross(d, u)
 
 
 def henyey_greenstein(cos_theta, g: float):

@@ -144,8 +144,15 @@ class SingleScattering(ea.EmissionAbsorption):
 
 
 def _fixed(lights: tuple[Light, ...]) -> list[FixedLight]:
-    """The lights with a position or direction (directional, point)."""
-    return [light for light in lights if isinstance(light, (DirectionalLight, PointLight))]
+    """The lights with a position or direction (directional, point), a sun's disk as its
+    directions (``DirectionalLight.disk``: one shadow each)."""
+    out: list[FixedLight] = []
+    for light in lights:
+        if isinstance(light, DirectionalLight):
+            out.extend(light.disk())
+        elif isinstance(light, PointLight):
+            out.append(light)
+    return out
 
 
 def _maps(integrator) -> list[EnvironmentMap]:
