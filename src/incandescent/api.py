@@ -124,7 +124,7 @@ def render_scene(
     def frame(integrator, settings=settings):
         return render(volume, camera, settings, backend, limits, progress, integrator=integrator)
 
-    if out.accumulate or out.batches > 1:
+    if out.accumulate or out.batches > 1 or out.time_budget_s is not None:
         return _accumulate(scene, frame, integrator, settings, start)
     image = with_layers(frame, integrator) if out.layers else frame(integrator)
     if out.denoise:
@@ -201,19 +201,33 @@ def _accumulate(scene: Scene, frame, integrator, settings, start: float):
     image, done = _prior_batches(scene, fingerprint)
     spp = int(getattr(integrator, "spp", 1))
     written: list[Path] = []
-    for _ in range(out.batches):
+    began = time.perf_counter()
+    for here in range(out.most_batches):
+        if not another_batch_fits(time.perf_counter() - began, here, out.time_budget_s):
+            break
         seed = (settings.seed + done * BATCH_SEED_STRIDE) % 2**31
         batch = frame(integrator, replace(settings, seed=seed))
         image, done = _combined(image, batch, done), done + 1
         meta = {"accumulate_fingerprint": fingerprint, "accumulate_batches": done,
                 "accumulate_seeds": f"{settings.seed} + k·{BATCH_SEED_STRIDE}, k < {done}",
                 "spp_total": done * spp}  # fmt: skip
+        if out.time_budget_s is not None:
+            meta["time_budget_s"] = out.time_budget_s
         image = replace(image, metadata={**image.metadata, **meta})
         written = [save_image(image, out.path, scene.display_settings(), overwrite=True)]
     assert image is not None, "batches >= 1"
     if out.stats is not None:
         written.append(write_json(out.stats, image_stats(image, start), overwrite=True))
     return image, written
+
+
+def another_batch_fits(elapsed_s: float, done: int, budget_s: float | None) -> bool:
+    """Whether a render that spent ``elapsed_s`` seconds on ``done`` batches starts another
+    within ``budget_s`` seconds (None: no budget): always the first; then only if the time so
+    far plus one more batch at the mean time per batch fits."""
+    if budget_s is None or done == 0:
+        return True
+    return elapsed_s * (done + 1) / done <= budget_s
 
 
 def denoised(image: HDRImage) -> HDRImage:

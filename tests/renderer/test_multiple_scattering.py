@@ -482,6 +482,45 @@ def test_batches_average_and_an_accumulated_render_continues_its_exr(tmp_path):
     assert other.exit_code == 2 and "not an accumulated render of this scene" in other.output
 
 
+def test_a_time_budget_starts_a_batch_only_while_it_fits():
+    """A budget of 10 s: the first batch always; after batches of 3 s (6 s for two, 9 s
+    projected with a third) a third fits, after 3 (9 s, 12 s projected) a fourth does not."""
+    from incandescent.api import another_batch_fits
+
+    assert another_batch_fits(0.0, 0, 1e-9) and another_batch_fits(50.0, 9, None)
+    assert another_batch_fits(6.0, 2, 10.0) and not another_batch_fits(9.0, 3, 10.0)
+
+
+def test_time_budgets_render_at_least_one_batch_and_at_most_batches(tmp_path):
+    """``--time-budget`` far below one batch's time renders one batch; a generous budget with
+    ``--batches 3`` renders 3 and equals ``--batches 3``; a budget of 0 or inf is one line."""
+    from typer.testing import CliRunner
+
+    from incandescent.cli import app
+    from incandescent.scenes import synthetic
+
+    np.save(tmp_path / "gas.npy", synthetic.plume_temperature(16))
+    base = ["render", str(tmp_path / "gas.npy"), "--width", "8", "--height", "8", "--albedo",
+            "0.6", "--fire-light", "--spp", "1"]  # fmt: skip
+    runner = CliRunner()
+
+    def run(*flags):
+        result = runner.invoke(app, [*base, *flags])
+        assert result.exit_code == 0, result.output
+        return read_exr(flags[-1])
+
+    _, meta, _ = run("--time-budget", "1e-6", "-o", str(tmp_path / "a.exr"))
+    assert meta["accumulate_batches"] == "1"
+    capped, meta, _ = run("--time-budget", "3600", "--batches", "3", "-o", str(tmp_path / "b.exr"))
+    assert meta["accumulate_batches"] == "3"
+    three, _, _ = run("--batches", "3", "-o", str(tmp_path / "c.exr"))
+    np.testing.assert_array_equal(capped, three)
+    for bad in ("0", "inf"):
+        result = runner.invoke(app, [*base, "--time-budget", bad, "-o", str(tmp_path / "d.exr")])
+        assert result.exit_code == 2 and "time_budget_s" in result.output, result.output
+        assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "d.exr").exists()
+
+
 def test_a_blender_fire_and_smoke_cache_lights_its_smoke_by_the_preset_rule(tmp_path):
     """``--preset blender --scattering preset`` reads a real Mantaflow cache's smoke density as
     Principled Volume does at its defaults: extinction κ split into σ_s = 0.5·κ and absorption

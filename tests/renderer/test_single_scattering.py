@@ -236,7 +236,10 @@ def test_a_sun_disk_by_flag_scene_file_radiance_and_python_is_one_render(tmp_pat
     lux, diameter = 2e4, 3.0
     radiance = lux / (np.pi * np.sin(np.radians(diameter / 2)) ** 2)
     common = ["--width", "12", "--height", "10", "--albedo", "0.6"]
-    for name, key in (("a", f"illuminance_lux = {lux}"), ("b", f"radiance_cd_m2 = {float(radiance)!r}")):
+    for name, key in (
+        ("a", f"illuminance_lux = {lux}"),
+        ("b", f"radiance_cd_m2 = {float(radiance)!r}"),
+    ):
         (tmp_path / f"{name}.toml").write_text(
             f'[volume]\npath = "{tmp_path / "gas.npy"}"\n[[light]]\ndirection = [0.0, 1.0, 0.5]\n'
             f"{key}\nangular_diameter_deg = {diameter}\n"

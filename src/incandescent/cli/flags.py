@@ -431,6 +431,9 @@ DENOISE = Flag("denoise", bool, "Denoise the image with Intel Open Image Denoise
 ACCUMULATE = (
     Flag("batches", int, "Render N batches of samples (seeds apart), averaged, the output "
          "written after each [1].", "output.batches"),
+    Flag("time_budget", float, "Render batches while the next fits in this many seconds (at "
+         "least one; --batches N the most), averaged, the output written after each.",
+         "output.time_budget_s"),
     Flag("accumulate", bool, "Continue the output .exr: average more batches into it (the same "
          "scene and settings, seed aside).", "output.accumulate", default=False),
 )

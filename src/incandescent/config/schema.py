@@ -455,12 +455,18 @@ class DisplaySection(_Section):
         return DisplaySettings(**fields)
 
 
+#: The most batches a time budget may render (each a seed apart; far more than any budget).
+MAX_BATCHES = 1_000_000
+
+
 class OutputSection(_Section):
     """Where results go; ``backend`` is ``auto`` or one of the render backends; ``layers``: the
     scattering render's compositing layers in the EXR (``renderer.layers``); ``denoise``: OIDN
     on the image written (``imaging.denoise``; a preview, no longer an unbiased estimate);
     ``batches``: render that many batches of samples (each with the next seed) and average
-    them, writing after each; ``accumulate``: continue the output EXR's batches."""
+    them, writing after each; ``time_budget_s``: render batches while the next one fits in
+    that many seconds (at least one; ``batches``, if given, the most); ``accumulate``: continue
+    the output EXR's batches."""
 
     path: Path | None = None
     overwrite: bool = False
@@ -470,6 +476,15 @@ class OutputSection(_Section):
     denoise: bool = False
     accumulate: bool = False
     batches: int = Field(default=1, ge=1)
+    time_budget_s: float | None = Field(default=None, gt=0, allow_inf_nan=False)
+
+    @property
+    def most_batches(self) -> int:
+        """The most batches to render: ``batches``, or with a time budget and no ``batches``
+        given, as many as fit (bounded by :data:`MAX_BATCHES`)."""
+        if self.time_budget_s is not None and "batches" not in self.model_fields_set:
+            return MAX_BATCHES
+        return self.batches
 
     @model_validator(mode="after")
     def _check(self) -> OutputSection:
