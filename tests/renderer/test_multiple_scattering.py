@@ -443,24 +443,34 @@ def test_denoising_a_one_path_render_brings_it_nearer_the_converged_one(tmp_path
     assert bad.exit_code == 2 and "not both" in bad.output, bad.output
 
 
-def test_batches_average_and_an_accumulated_render_continues_its_exr(tmp_path):
-    """``--batches 2`` then ``--accumulate`` is ``--batches 3`` (to float32 rounding through
-    the EXR); four one-path batches are nearer the converged image than one (noise ∝
-    1/√batches: measured ×0.45, √4 gives ×0.5); another scene cannot continue the file."""
+def _fire_lit_cli(tmp_path, size: int, pixels: int):
+    """(a CLI runner, the render command of a fire-lit plume of ``size`` voxels at ``pixels``²
+    with one path per sample, ``run(*flags, OUT)`` → the EXR written, checked to succeed)."""
     from typer.testing import CliRunner
 
     from incandescent.cli import app
     from incandescent.scenes import synthetic
 
-    np.save(tmp_path / "gas.npy", synthetic.plume_temperature(24))
-    base = ["render", str(tmp_path / "gas.npy"), "--width", "16", "--height", "16", "--albedo",
-            "0.6", "--fire-light", "--spp", "1"]  # fmt: skip
+    np.save(tmp_path / "gas.npy", synthetic.plume_temperature(size))
+    base = ["render", str(tmp_path / "gas.npy"), "--width", str(pixels), "--height",
+            str(pixels), "--albedo", "0.6", "--fire-light", "--spp", "1"]  # fmt: skip
     runner = CliRunner()
 
     def run(*flags):
         result = runner.invoke(app, [*base, *flags])
         assert result.exit_code == 0, result.output
         return read_exr(flags[-1])
+
+    return runner, base, run
+
+
+def test_batches_average_and_an_accumulated_render_continues_its_exr(tmp_path):
+    """``--batches 2`` then ``--accumulate`` is ``--batches 3`` (to float32 rounding through
+    the EXR); four one-path batches are nearer the converged image than one (noise ∝
+    1/√batches: measured ×0.45, √4 gives ×0.5); another scene cannot continue the file."""
+    from incandescent.cli import app
+
+    runner, base, run = _fire_lit_cli(tmp_path, 24, 16)
 
     two = tmp_path / "acc.exr"
     run("--batches", "2", "-o", str(two))
@@ -494,20 +504,9 @@ def test_a_time_budget_starts_a_batch_only_while_it_fits():
 def test_time_budgets_render_at_least_one_batch_and_at_most_batches(tmp_path):
     """``--time-budget`` far below one batch's time renders one batch; a generous budget with
     ``--batches 3`` renders 3 and equals ``--batches 3``; a budget of 0 or inf is one line."""
-    from typer.testing import CliRunner
-
     from incandescent.cli import app
-    from incandescent.scenes import synthetic
 
-    np.save(tmp_path / "gas.npy", synthetic.plume_temperature(16))
-    base = ["render", str(tmp_path / "gas.npy"), "--width", "8", "--height", "8", "--albedo",
-            "0.6", "--fire-light", "--spp", "1"]  # fmt: skip
-    runner = CliRunner()
-
-    def run(*flags):
-        result = runner.invoke(app, [*base, *flags])
-        assert result.exit_code == 0, result.output
-        return read_exr(flags[-1])
+    runner, base, run = _fire_lit_cli(tmp_path, 16, 8)
 
     _, meta, _ = run("--time-budget", "1e-6", "-o", str(tmp_path / "a.exr"))
     assert meta["accumulate_batches"] == "1"
