@@ -49,6 +49,9 @@ def save_image(
         for name in image.layers:  # EXR layers "emission.R" … (renderer.layers)
             rgb = image.layer_rgb(name)
             extra.update({f"{name}.{c}": rgb[..., i] for i, c in enumerate("RGB")})
+        if image.layers:  # for compositing: what shows through the gas (A = 1 − it)
+            extra["transmittance.Y"] = image.transmittance
+            meta["transmittance"] = "transmittance.Y: e^(-optical depth) along each pixel's rays"
         return write_exr(path, image.rgb(), meta, overwrite=overwrite, extra_channels=extra)
     if suffix == ".png":
         return write_png(

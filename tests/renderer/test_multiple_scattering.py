@@ -282,7 +282,9 @@ def test_layers_split_the_beauty_and_reach_the_exr(tmp_path):
         assert {f"{name}.{c}" for c in "RGB"} <= set(extra)
     summed = sum(extra[f"{n}.G"] for n in ("emission", "scatter.direct", "scatter.indirect"))
     np.testing.assert_allclose(summed, rgb[..., 1], rtol=1e-4, atol=1e-6 * rgb.max())
-    assert "layers" in meta
+    assert "layers" in meta and "Z" in extra  # depth: the EXR's Z
+    np.testing.assert_allclose(extra["transmittance.Y"], 1 - extra["A"], atol=1e-6)
+    assert extra["transmittance.Y"].min() < 0.9 and extra["transmittance.Y"].max() <= 1
     for flags, message in (([*lit_flags, "-o", str(tmp_path / "b.png")], "give an .exr output"),
                            (["-o", str(tmp_path / "c.exr")], "they need lights")):  # fmt: skip
         bad = CliRunner().invoke(app, [*base, *flags, "--layers"])
