@@ -211,8 +211,8 @@ LIGHTING = (
          "volume.scattering", _number_or_name),
     Flag("albedo", float, "Scattering from the albedo σ_s/(σ_s + κ), 0 <= A < 1.",
          "volume.albedo"),
-    Flag("phase_g", float, "Henyey–Greenstein asymmetry g, -1 < g < 1 (> 0 forward) [0].",
-         "volume.phase_g"),
+    Flag("phase_g", str, "Henyey–Greenstein asymmetry g, -1 < g < 1 (> 0 forward), or a "
+         "grid's name [0].", "volume.phase_g", _number_or_name),
     Flag("sun", str, "A sun: X,Y,Z,LUX — direction toward it and illuminance in lux (a "
          "single_scattering render).", "light", _sun),
     Flag("sun_temperature", float, "The sun's blackbody temperature in K [5778]."),

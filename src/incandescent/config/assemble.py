@@ -99,9 +99,10 @@ def volume_from_section(
 
 
 def _scattering_grid(spec: VolumeSection) -> set[str]:
-    """The name of the σ_s grid the section names (``scattering = "grid"``), if any."""
-    name = spec.scattering
-    return {name} if isinstance(name, str) and name != PRESET_SCATTERING else set()
+    """The names of the σ_s and g grids the section names (``scattering = "grid"``,
+    ``phase_g = "grid"``), if any."""
+    names = {spec.scattering, spec.phase_g} - {PRESET_SCATTERING}
+    return {name for name in names if isinstance(name, str)}
 
 
 def _scattering(volume: Volume, spec: VolumeSection, grids) -> Volume:
@@ -109,12 +110,13 @@ def _scattering(volume: Volume, spec: VolumeSection, grids) -> Volume:
     preset's smoke rule: κ split into scattering and absorption, ``volume.presets``)."""
     if spec.scattering is None and spec.albedo is None:
         return volume
+    g = grids[spec.phase_g] if isinstance(spec.phase_g, str) else spec.phase_g
     if spec.scattering == PRESET_SCATTERING:
         assert spec.preset is not None, "the schema checks that a preset is named"
         albedo = preset_parameters(spec.preset, spec.preset_options)["smoke_albedo"]
-        return volume.with_extinction_split(albedo, spec.phase_g)
+        return volume.with_extinction_split(albedo, g)
     value = grids[spec.scattering] if isinstance(spec.scattering, str) else spec.scattering
-    return volume.with_scattering(value, spec.albedo, spec.phase_g)
+    return volume.with_scattering(value, spec.albedo, g)
 
 
 def _velocity_grid(spec: VolumeSection, source) -> str:

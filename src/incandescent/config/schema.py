@@ -178,10 +178,11 @@ class VolumeSection(_Section):
     #: The absorption's spectral law κ_λ = κ·(550 nm/λ)^α (``Volume.soot_alpha``).
     soot_alpha: float = 1.0
     #: Scattering σ_s: a constant (1/m) or the name of a grid in the file; or ``albedo``
-    #: σ_s/(σ_s + κ); Henyey–Greenstein asymmetry ``phase_g`` (``Volume.with_scattering``).
+    #: σ_s/(σ_s + κ); Henyey–Greenstein asymmetry ``phase_g``, a constant or a grid's name
+    #: (``Volume.with_scattering``).
     scattering: float | str | None = None
     albedo: float | None = None
-    phase_g: float = 0.0
+    phase_g: float | str = 0.0
 
     @model_validator(mode="after")
     def _check(self) -> VolumeSection:
@@ -221,9 +222,10 @@ def _scattering_problem(section: VolumeSection) -> None:
         raise _fail('scattering = "preset" splits a preset\'s smoke: name the preset (blender, '
                     "houdini, embergen)")  # fmt: skip
     constant = None if isinstance(section.scattering, str) else section.scattering
+    g = 0.0 if isinstance(section.phase_g, str) else section.phase_g  # a grid: checked when read
     one = Volume.from_arrays(np.ones((1, 1, 1)), absorption=1.0, source="volume")
     try:
-        one.with_scattering(constant, section.albedo, section.phase_g)
+        one.with_scattering(constant, section.albedo, g)
     except ValueError as error:
         raise _fail(str(error).removeprefix("volume: ")) from None
 

@@ -294,9 +294,9 @@ def _frame(d: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.floa
     return u, np.cross(d, u)
 
 
-def henyey_greenstein(cos_theta, g: float):
+def henyey_greenstein(cos_theta, g):
     """The Henyey–Greenstein phase function (1/sr) at the scattering angle's cosine
     (Henyey & Greenstein 1941, ApJ 93:70): p = (1 − g²) / (4π (1 + g² − 2g cos θ)^{3/2}),
-    normalised over the sphere; g > 0 scatters forward."""
+    normalised over the sphere; g > 0 scatters forward (a number, or one per sample)."""
     denom = 1.0 + g * g - 2.0 * g * cos_theta
     return (1.0 - g * g) / (4.0 * np.pi * denom * denom**0.5)

@@ -216,14 +216,25 @@ def _velocity(value, shape, source: str) -> NDArray[np.float32] | None:
 SODIUM = "Na"
 
 
-def check_phase_g(g) -> float:
-    """The Henyey–Greenstein asymmetry g, a number with −1 < g < 1."""
-    if isinstance(g, bool) or not isinstance(g, (int, float, np.number)):
-        raise ValueError(f"phase_g must be a number in (-1, 1); got {g!r}")
-    if not np.isfinite(float(g)) or not -1.0 < g < 1.0:
-        raise ValueError(f"phase_g must be in (-1, 1) (|g| = 1 is a delta, not a phase function); "
-                         f"got {g!r}")  # fmt: skip
-    return float(g)
+def check_phase_g(g, shape: tuple[int, ...] | None = None, source: str = "volume"):
+    """The Henyey–Greenstein asymmetry g: a number with −1 < g < 1, or (with the volume's
+    ``shape``) a float32 grid of such numbers, one per voxel."""
+    if isinstance(g, bool) or (np.ndim(g) == 0 and not isinstance(g, (int, float, np.number))):
+        raise ValueError(f"phase_g must be a number in (-1, 1) or a grid; got {g!r}")
+    if np.ndim(g) == 0:
+        if not np.isfinite(float(g)) or not -1.0 < g < 1.0:
+            raise ValueError(f"phase_g must be in (-1, 1) (|g| = 1 is a delta, not a phase "
+                             f"function); got {g!r}")  # fmt: skip
+        return float(g)
+    if shape is None:
+        raise ValueError("a phase_g grid needs the volume's shape")
+    arr, low = _grid(g, f"{source}: phase_g", tuple(shape))
+    high = float(np.max(arr))
+    if not (-1.0 < low and high < 1.0):
+        bad = low if low <= -1.0 else high
+        index = tuple(int(i) for i in np.argwhere(arr == bad)[0])
+        raise ValueError(f"{source}: phase_g must be in (-1, 1); got {bad:g} at voxel {index}")
+    return _f32(np.array(arr, dtype=np.float32))
 
 
 def scattering_grid(value, albedo, kappa: NDArray, shape, source: str):

@@ -101,15 +101,21 @@ def orthonormal_basis(n, ops) -> tuple[tuple, tuple]:
     return e1, e2
 
 
-def sample_henyey_greenstein(u0, u1, d, g: float, ops) -> tuple:
+def sample_henyey_greenstein(u0, u1, d, g, ops) -> tuple:
     """A direction ω with pdf p_HG(ω·d) (1/sr) from uniforms u0, u1 in [0, 1): cos θ from the
     inverse CDF, μ = (1 + g² − ((1 − g²)/(1 − g + 2g·u0))²)/(2g) (isotropic where
-    |g| < ``ISOTROPIC_G``), the azimuth 2π·u1."""
-    if abs(g) < ISOTROPIC_G:
+    |g| < ``ISOTROPIC_G``), the azimuth 2π·u1; g a float, or an array (traced or NumPy) of one
+    g per sample."""
+    if isinstance(g, float) and abs(g) < ISOTROPIC_G:
         mu = 1.0 - 2.0 * u0
-    else:
+    elif isinstance(g, float):
         s = (1.0 - g * g) / (1.0 - g + 2.0 * g * u0)
         mu = (1.0 + g * g - s * s) * (0.5 / g)
+    else:  # g per sample (a grid): the same, lane by lane
+        isotropic = g * g < ISOTROPIC_G * ISOTROPIC_G
+        h = ops.select(isotropic, 0.5, g)
+        s = (1.0 - h * h) / (1.0 - h + 2.0 * h * u0)
+        mu = ops.select(isotropic, 1.0 - 2.0 * u0, (1.0 + h * h - s * s) * (0.5 / h))
     sin_theta = ops.sqrt(ops.maximum(1.0 - mu * mu, 0.0))
     phi = 2.0 * np.pi * u1
     e1, e2 = orthonormal_basis(d, ops)
@@ -170,7 +176,7 @@ def _dilated(grid: NDArray) -> NDArray:
 # --- Dr.Jit -----------------------------------------------------------------------------------
 class TracedEmissionLight:
     """The traced estimator of the emission part of J (XYZ per sr) for the single-scattering
-    program ``program`` (which has ``scattering``, ``g`` and ``emission_coefficient``)."""
+    program ``program`` (which has ``scattering``, ``g_at`` and ``emission_coefficient``)."""
 
     def __init__(self, program, cells: LightCells) -> None:
         self.program, self.K = program, program.kernel
@@ -185,7 +191,7 @@ class TracedEmissionLight:
         balance-weighted (``u``: :data:`DIMENSIONS` uniforms)."""
         K = self.K
         dr, m = K.dr, K.m
-        g = self.program.g
+        g = self.program.g_at(p)
         q = self.point_in_cell(u[0], u[1:4])
         v = q - p
         r = dr.norm(v)
@@ -298,7 +304,7 @@ class ReferenceEmissionLight:
 
     def pair(self, p, d, u) -> NDArray:
         """Ĵ at samples p (m, 3) seen along unit d (m, 3), from uniforms ``u`` (float64)."""
-        g = float(self.inputs.volume.phase_g)
+        g = self.program.g_at(p)
         v = self.point_in_cell(u[0], np.stack(u[1:4], axis=1)) - p
         r = np.linalg.norm(v, axis=1)
         toward_light = np.where((r > 1e-6)[:, None], v / np.maximum(r, 1e-300)[:, None], d)

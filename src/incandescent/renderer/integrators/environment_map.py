@@ -91,7 +91,7 @@ class TracedEnvironmentMap:
         toward_map = m.Array3f(
             *direction((col + u[1]) / t.width, (row + u[2]) / t.height, self.ops)
         )
-        g = self.program.g
+        g = self.program.g_at(p)
         toward_phase = m.Array3f(*el.sample_henyey_greenstein(u[3], u[4], d, g, self.ops))
         out = m.Array3f(0.0)
         for w in (toward_map, toward_phase):
@@ -117,7 +117,7 @@ class ReferenceEnvironmentMap:
         self.tables = MapTables(sky)
 
     def event(self, p, d, u) -> NDArray:
-        t, g = self.tables, float(self.inputs.volume.phase_g)
+        t, g = self.tables, self.program.g_at(p)
         i = np.minimum(np.searchsorted(t.cdf, u[0], side="right"), t.cdf.size - 1)
         col, row = i % t.width, i // t.width
         toward_map = np.stack(

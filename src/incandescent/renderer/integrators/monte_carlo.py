@@ -120,7 +120,7 @@ class TracedMonteCarlo:
         if self.emitter is not None:
             out = out + self.emitter.pair(p, d, u[: el.DIMENSIONS])
         if self.sky is not None:
-            n, g = el.DIMENSIONS, self.program.g
+            n, g = el.DIMENSIONS, self.program.g_at(p)
             w = m.Array3f(*el.sample_henyey_greenstein(u[n], u[n + 1], d, g, self.ops))
             _, t_exit = clip_to_box(dr, m, p, w, K.shape)
             length = dr.maximum(t_exit, 0.0)
@@ -163,7 +163,7 @@ class TracedMonteCarlo:
         uniforms after its next events')."""
         K = self.K
         dr, m = K.dr, K.m
-        g = self.program.g
+        g = self.program.g_at(p)
         w = m.Array3f(*el.sample_henyey_greenstein(u[0], u[1], d, g, self.ops))
         if self.emitter is None:
             return w, 1.0
@@ -241,7 +241,7 @@ class ReferenceMonteCarlo:
         if self.emitter is not None:
             out += self.emitter.pair(p, d, u[: el.DIMENSIONS])
         if self.sky is not None:
-            g, n = float(self.inputs.volume.phase_g), el.DIMENSIONS
+            g, n = self.program.g_at(p), el.DIMENSIONS
             hg = el.sample_henyey_greenstein(u[n], u[n + 1], d.T, g, el.NUMPY_OPS)
             w = np.stack(hg, axis=1)
             shape = np.asarray(self.inputs.volume.shape, dtype=np.float64)
@@ -282,7 +282,7 @@ class ReferenceMonteCarlo:
 
     def direction(self, p, d, u) -> tuple[NDArray, NDArray]:
         """A path's next directions and weights p_HG/q, as traced."""
-        g = float(self.inputs.volume.phase_g)
+        g = self.program.g_at(p)
         w = np.stack(el.sample_henyey_greenstein(u[0], u[1], d.T, g, el.NUMPY_OPS), axis=1)
         if self.emitter is None:
             return w, np.ones(len(p))

@@ -202,7 +202,9 @@ class _Traced(ea._Traced):
         super().__init__(kernel)
         vol = kernel.volume
         self.scattering = kernel.grid(("scattering",), vol.scattering_per_m)
-        self.g = float(vol.phase_g)
+        g = vol.phase_g
+        self.g = g if isinstance(g, float) else None
+        self.g_grid = None if self.g is not None else kernel.grid(("phase_g",), g)
         #: the step of the Monte Carlo marches, voxels
         self.path_dt = np.float32(max(float(kernel.dt), integrator.path_step_voxels))
         lights = _fixed(integrator.lights)
@@ -219,6 +221,14 @@ class _Traced(ea._Traced):
         self.shadow_grids = None
         if integrator.shadows == "grid":
             self.shadow_grids = [self.transmittance_grid(i) for i in range(len(self.lights))]
+
+    def g_at(self, p, c=None):
+        """Traced: the Henyey–Greenstein g at positions p (or trilinear corners c): the
+        volume's constant, or its grid interpolated."""
+        if self.g_grid is None:
+            return self.g
+        K = self.kernel
+        return K.trilinear(self.g_grid, K.corners(p) if c is None else c)
 
     def geometry(self, index: int, p):
         """Traced: (unit direction toward light ``index``, the march's length in voxels — to the
@@ -281,7 +291,7 @@ class _Traced(ea._Traced):
                 shadow = K.trilinear(self.shadow_grids[index], c)
             else:
                 shadow = self.transmittance_along(p, d, length)
-            weight = henyey_greenstein(dr.dot(d, view), self.g) * shadow * falloff
+            weight = henyey_greenstein(dr.dot(d, view), self.g_at(p, c)) * shadow * falloff
             light = self.lights[index][0]
             if isinstance(light, SpotLight):  # the light shines along its axis toward −d
                 weight = weight * light.factor(-dr.dot(d, m.Array3f(*light.direction)), dr.clip)
@@ -348,6 +358,11 @@ class _Reference(ea._Reference):
                 for i in range(len(self.lights))
             ]
 
+    def g_at(self, p: NDArray) -> float | NDArray:
+        """The Henyey–Greenstein g at positions p (m, 3): the constant, or the grid's."""
+        g = self.inputs.volume.phase_g
+        return g if isinstance(g, float) else trilinear(g, p)
+
     def geometry(self, index: int, p: NDArray) -> tuple[NDArray, NDArray, NDArray | float]:
         """(unit directions toward light ``index``, march lengths in voxels, 1/r² in 1/m²)."""
         vol = self.inputs.volume
@@ -378,7 +393,7 @@ class _Reference(ea._Reference):
 
     def direct(self, p, view) -> NDArray:
         """The directional and point lights' part of J at p seen along unit ``view`` (m, 3)."""
-        g = float(self.inputs.volume.phase_g)
+        g = self.g_at(p)
         out = np.zeros((len(p), 3))
         for index, (_, _, xyz) in enumerate(self.lights):
             d, length, falloff = self.geometry(index, p)
