@@ -15,7 +15,12 @@ from numpy.typing import NDArray
 import incandescent as inc
 from incandescent.io.images import read_exr
 from incandescent.renderer.integrators import EmissionAbsorption, SingleScattering
-from incandescent.renderer.lights import DirectionalLight, PointLight, henyey_greenstein
+from incandescent.renderer.lights import (
+    DirectionalLight,
+    EnvironmentLight,
+    PointLight,
+    henyey_greenstein,
+)
 from incandescent.scenes import pbrt, synthetic
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "pbrt_d1"
@@ -194,7 +199,10 @@ def test_henyey_greenstein_is_normalised_with_mean_cosine_g(g):
         (lambda v: v.with_scattering(1.0, albedo=0.5), "not both"),
         (lambda v: DirectionalLight((0.0, 0.0, 0.0)), "needs a direction"),
         (lambda v: DirectionalLight((0.0, 1.0, 0.0), -5.0), "illuminance_lux must be >= 0"),
-        (lambda v: SingleScattering(spectral_bins=4), "grey band only"),
+        (
+            lambda v: SingleScattering(lights=(EnvironmentLight(),), spectral_bins=4),
+            "grey band only",
+        ),
         (lambda v: SingleScattering(shadows="exact"), "unknown shadows 'exact'"),
         (lambda v: PointLight((0.0, float("inf"), 0.0)), "needs a position"),
         (lambda v: PointLight((0.0, 0.0, 0.0), -1.0), "intensity_cd must be >= 0"),

@@ -211,6 +211,8 @@ LIGHTING = (
          "volume.scattering", _number_or_name),
     Flag("albedo", float, "Scattering from the albedo σ_s/(σ_s + κ), 0 <= A < 1.",
          "volume.albedo"),
+    Flag("scattering_alpha", float, "Spectral law of the scattering σ_s,λ = σ_s·(550 nm/λ)^β "
+         "with --spectral-bins: β in [0, 4] (4: Rayleigh) [0: grey].", "volume.scattering_alpha"),
     Flag("phase_g", str, "Henyey–Greenstein asymmetry g, -1 < g < 1 (> 0 forward), or a "
          "grid's name [0].", "volume.phase_g", _number_or_name),
     Flag("sun", str, "A sun: X,Y,Z,LUX — direction toward it and illuminance in lux (a "
@@ -265,8 +267,9 @@ INTEGRATOR = (
     Flag("integrator", str, "emission_absorption | paper2011 | single_scattering (the "
          "[integrator] type) [emission_absorption; single_scattering with lights].",
          "integrator.type"),
-    Flag("spectral_bins", int, "emission_absorption: N spectral bins for soot's κ_λ (0: grey) "
-         "[0].", "integrator.spectral_bins"),
+    Flag("spectral_bins", int, "N spectral bins for soot's κ_λ and the scattering's σ_s,λ "
+         "(emission_absorption, single_scattering of sun/point/spot lights; 0: grey) [0].",
+         "integrator.spectral_bins"),
     Flag("sodium", float, "Constant sodium fraction 0..1 (species Na)."),
     Flag("paper_exponent", float, "Paper mode: brightness ∝ T^exponent [1.5].",
          "integrator.exponent"),

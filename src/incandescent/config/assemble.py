@@ -114,9 +114,10 @@ def _scattering(volume: Volume, spec: VolumeSection, grids) -> Volume:
     if spec.scattering == PRESET_SCATTERING:
         assert spec.preset is not None, "the schema checks that a preset is named"
         albedo = preset_parameters(spec.preset, spec.preset_options)["smoke_albedo"]
-        return volume.with_extinction_split(albedo, g)
+        split = volume.with_extinction_split(albedo, g)
+        return split.replace(scattering_alpha=spec.scattering_alpha)
     value = grids[spec.scattering] if isinstance(spec.scattering, str) else spec.scattering
-    return volume.with_scattering(value, spec.albedo, g)
+    return volume.with_scattering(value, spec.albedo, g, spec.scattering_alpha)
 
 
 def _velocity_grid(spec: VolumeSection, source) -> str:

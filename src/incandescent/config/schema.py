@@ -183,6 +183,9 @@ class VolumeSection(_Section):
     scattering: float | str | None = None
     albedo: float | None = None
     phase_g: float | str = 0.0
+    #: The scattering's spectral law σ_s,λ = σ_s·(550 nm/λ)^β in spectral bins
+    #: (``Volume.scattering_alpha``; 0 grey, 4 Rayleigh).
+    scattering_alpha: float = 0.0
 
     @model_validator(mode="after")
     def _check(self) -> VolumeSection:
@@ -200,6 +203,7 @@ class VolumeSection(_Section):
                 "give absorption (a constant, 1/m) or grids.absorption (a grid name), not both"
             )
         _checked(lambda: check_soot_alpha(self.soot_alpha))
+        _checked(lambda: check_soot_alpha(self.scattering_alpha, "scattering_alpha"))
         _scattering_problem(self)
         one_voxel = np.ones((1, 1, 1))
         _checked(

@@ -121,6 +121,9 @@ class Volume(Placed):
         extinction is then κ + σ_s.
     phase_g: the Henyey–Greenstein asymmetry g of the scattering, −1 < g < 1 (> 0 forward): a
         number, or an (nx, ny, nz) float32 grid of g per voxel (interpolated like σ_s).
+    scattering_alpha: the spectral law of the scattering, σ_s,λ = σ_s·(550 nm/λ)^β (0: grey,
+        the default; 4: Rayleigh's small particles), used where transport runs in spectral
+        bins; σ_s is the scattering at 550 nm.
     medium: what construction already knows of κ and T (:class:`MediumSummary`), or None.
     origin_m: world position of the corner of voxel (0, 0, 0), m.
     voxel_size_m: side of a voxel, m.
@@ -140,11 +143,14 @@ class Volume(Placed):
     medium: MediumSummary | None = field(default=None, repr=False)
     scattering_per_m: NDArray[np.float32] | None = None
     phase_g: float | NDArray[np.float32] = 0.0
+    scattering_alpha: float = 0.0
     _cache: dict = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "soot_alpha", check_soot_alpha(self.soot_alpha))
         object.__setattr__(self, "phase_g", check_phase_g(self.phase_g, self.shape))
+        beta = check_soot_alpha(self.scattering_alpha, "scattering_alpha")
+        object.__setattr__(self, "scattering_alpha", beta)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -257,14 +263,17 @@ class Volume(Placed):
         scattering_per_m: ArrayLike | float | None = None,
         albedo: float | None = None,
         phase_g: ArrayLike | float = 0.0,
+        scattering_alpha: float = 0.0,
     ) -> Volume:
         """A copy that scatters: σ_s in 1/m (a constant or a grid), or from the single-scattering
         albedo α = σ_s/(σ_s + κ) as σ_s = α/(1 − α)·κ; Henyey–Greenstein asymmetry ``phase_g``
-        (a constant or a grid)."""
+        (a constant or a grid); spectral law ``scattering_alpha`` (β of σ_s,λ ∝ λ^−β)."""
         sigma = scattering_grid(
             scattering_per_m, albedo, self.absorption_per_m, self.shape, "volume"
         )
-        return self.replace(scattering_per_m=sigma, phase_g=phase_g)
+        return self.replace(
+            scattering_per_m=sigma, phase_g=phase_g, scattering_alpha=scattering_alpha
+        )
 
     def with_extinction_split(self, albedo: float, phase_g: ArrayLike | float = 0.0) -> Volume:
         """A copy whose κ is read as the extinction σ_t and split into scattering σ_s = α·σ_t

@@ -254,12 +254,13 @@ def scattering_grid(value, albedo, kappa: NDArray, shape, source: str):
     return _optional_grid(value, shape, "scattering_per_m", source)
 
 
-def check_soot_alpha(alpha) -> float:
-    """The soot exponent α of κ_λ = κ·(550 nm/λ)^α, a number in [0, 4]."""
+def check_soot_alpha(alpha, name: str = "soot_alpha") -> float:
+    """A spectral exponent (soot's α of κ_λ = κ·(550 nm/λ)^α, or the scattering's β of
+    σ_s,λ = σ_s·(550 nm/λ)^β), a number in [0, 4] (4: Rayleigh's λ^−4)."""
     if isinstance(alpha, bool) or not isinstance(alpha, (int, float, np.number)):
-        raise ValueError(f"soot_alpha must be a number in [0, 4]; got {alpha!r}")
+        raise ValueError(f"{name} must be a number in [0, 4]; got {alpha!r}")
     if not np.isfinite(float(alpha)) or not 0 <= alpha <= 4:
-        raise ValueError(f"soot_alpha must be in [0, 4]; got {alpha!r}")
+        raise ValueError(f"{name} must be in [0, 4]; got {alpha!r}")
     return float(alpha)
 
 

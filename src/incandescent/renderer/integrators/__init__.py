@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from incandescent import _validate
+from incandescent.renderer.integrators import spectral_scattering  # noqa: F401  (registers)
 from incandescent.renderer.integrators.base import Integrator, Reference, Segment, Traced
 from incandescent.renderer.integrators.emission_absorption import EmissionAbsorption
 from incandescent.renderer.integrators.multiple_scattering import MultipleScattering

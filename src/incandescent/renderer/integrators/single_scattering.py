@@ -65,6 +65,9 @@ SHADOWS = ("grid", "march")
 MAX_SHADOW_DEPTH = 40.0
 #: Most Monte Carlo sample pairs per scattering sample (``spp``).
 MAX_SPP = 4096
+#: The spectral-bins programs ("traced", "reference"): ``spectral_scattering`` subclasses this
+#: module's and registers them here on import (``integrators/__init__`` imports it).
+SPECTRAL: dict[str, Any] = {}
 
 
 @dataclass(frozen=True)
@@ -86,8 +89,6 @@ class SingleScattering(ea.EmissionAbsorption):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if self.spectral_bins:
-            raise ValueError("single_scattering runs in the grey band only (spectral_bins 0)")
         lights = tuple(self.lights)
         for light in lights:
             if not isinstance(light, Light):
@@ -96,6 +97,7 @@ class SingleScattering(ea.EmissionAbsorption):
                     f"EnvironmentLight or EnvironmentMap; got {light!r}"
                 )
         object.__setattr__(self, "lights", lights)
+        _check_spectral(self)
         _validate.choice(self.shadows, "shadows", SHADOWS)
         spp = self.spp
         integer = isinstance(spp, (int, np.integer)) and not isinstance(spp, bool)
@@ -135,12 +137,31 @@ class SingleScattering(ea.EmissionAbsorption):
     def traced(self, kernel):
         if kernel.volume.scattering_per_m is None:
             return super().traced(kernel)
+        if not kernel.bands.grey:
+            return SPECTRAL["traced"](kernel, self)
         return _Traced(kernel, self)
 
     def reference(self, inputs):
         if inputs.volume.scattering_per_m is None:
             return super().reference(inputs)
+        if not inputs.bands.grey:
+            return SPECTRAL["reference"](inputs, self)
         return _Reference(inputs, self)
+
+
+def _check_spectral(integrator: SingleScattering) -> None:
+    """Spectral bins scatter the directional, point and spot lights once: the Monte Carlo
+    lights and paths are grey."""
+    if not integrator.spectral_bins:
+        return
+    sampled = [x for x in integrator.lights if not isinstance(x, (DirectionalLight, PointLight))]
+    if sampled or integrator.max_bounces >= 2:
+        bounces = f"max_bounces {integrator.max_bounces}"
+        what = type(sampled[0]).__name__ if sampled else bounces
+        raise ValueError(
+            f"spectral bins scatter directional, point and spot lights once (single "
+            f"scattering); {what} runs in the grey band only: use spectral_bins 0"
+        )
 
 
 def _fixed(lights: tuple[Light, ...]) -> list[FixedLight]:
@@ -249,14 +270,19 @@ class _Traced(ea._Traced):
     def transmittance_grid(self, index: int):
         """Light ``index``'s transmittance marched from every voxel centre, evaluated now (one
         kernel), C order: what :meth:`in_scattered` interpolates."""
+        return self.from_centres(index, self.transmittance_along)
+
+    def from_centres(self, index: int, along):
+        """``along(p, d, length)`` toward light ``index`` from every voxel centre p, evaluated
+        now (one kernel), C order."""
         K = self.kernel
         m = K.m
         centres = np.indices(K.shape, dtype=np.float32).reshape(3, -1) + np.float32(0.5)
         p = m.Array3f(*(m.Float(a) for a in centres))
         d, length, _ = self.geometry(index, p)
-        grid = self.transmittance_along(p, d, length)
-        K.dr.eval(grid)
-        return grid
+        out = along(p, d, length)
+        K.dr.eval(out)
+        return out
 
     def transmittance_along(self, p, d, length, dt=None):
         """Traced: e^{−∫σ_t ds} from p along d for ``length`` voxels (midpoint rule, steps of
@@ -329,7 +355,65 @@ class _Traced(ea._Traced):
         return tr * e, dr.fma(eta, tr * weight, L)
 
 
-class _Reference(ea._Reference):
+class _ReferenceLights:
+    """Float64 light geometry and shadows shared by the grey and the spectral references (they
+    set ``inputs`` and ``lights``: (light, direction or position in voxels, XYZ) triples)."""
+
+    inputs: Any
+    lights: list
+
+    def medium(self, p: NDArray) -> tuple:
+        """(κ, σ_s, T, the models' sampled grids, whether each emits) at positions p (m, 3)."""
+        inputs, vol = self.inputs, self.inputs.volume
+        kappa, sigma_s = trilinear(vol.absorption_per_m, p), trilinear(vol.scattering_per_m, p)
+        temp, sampled = trilinear(vol.temperature_K, p), ea._sampled(inputs, p)
+        emits = ea._present(kappa, sampled) & (temp >= inputs.lut.t_min_K)
+        return kappa, sigma_s, temp, sampled, emits
+
+    def g_at(self, p: NDArray) -> float | NDArray:
+        """The Henyey–Greenstein g at positions p (m, 3): the constant, or the grid's."""
+        g = self.inputs.volume.phase_g
+        return g if isinstance(g, float) else trilinear(g, p)
+
+    def geometry(self, index: int, p: NDArray) -> tuple[NDArray, NDArray, NDArray | float]:
+        """(unit directions toward light ``index``, march lengths in voxels, 1/r² in 1/m²)."""
+        vol = self.inputs.volume
+        light, where, _ = self.lights[index]
+        if isinstance(light, DirectionalLight):
+            length = np.maximum(_exit_voxels(p.T, where, vol.shape, np.minimum), 0.0)
+            return np.broadcast_to(where, p.shape), length, 1.0
+        v = where - p
+        r = np.maximum(np.linalg.norm(v, axis=1), 1e-6)
+        d = v / r[:, None]
+        _, t_box = rays.clip_to_box(p, d, np.asarray(vol.shape, dtype=np.float64))
+        return d, np.clip(t_box, 0.0, r), 1.0 / (r * vol.voxel_size_m) ** 2
+
+    def transmittance_along(self, p: NDArray, d: NDArray, length: NDArray, dt=None) -> NDArray:
+        """e^{−∫σ_t ds} from p along d for ``length`` voxels (midpoint rule, step ``dt``)."""
+        tau_kappa, tau_sigma = self.optical_depths(p, d, length, dt)
+        return np.exp(-(tau_kappa + tau_sigma))
+
+    def optical_depths(self, p: NDArray, d: NDArray, length: NDArray, dt=None, most=1.0):
+        """(∫κ ds, ∫σ_s ds) from p along d for ``length`` voxels (midpoint rule, steps of ``dt``
+        voxels: the render's by default), stopping once ``most``·(their sum) passes
+        :data:`MAX_SHADOW_DEPTH` (``most``: the smallest spectral scale of either)."""
+        vol = self.inputs.volume
+        dt = self.inputs.settings.step_voxels if dt is None else dt
+        tau_k, tau_s, k = np.zeros(len(p)), np.zeros(len(p)), 0
+        while True:
+            a = k * dt
+            live = (a < length) & (most * (tau_k + tau_s) < MAX_SHADOW_DEPTH)
+            if not live.any():
+                return tau_k, tau_s
+            b = np.minimum(a + dt, length[live])
+            q = p[live] + d[live] * (0.5 * (a + b))[:, None]
+            metres = (b - a) * vol.voxel_size_m
+            tau_k[live] += trilinear(vol.absorption_per_m, q) * metres
+            tau_s[live] += trilinear(vol.scattering_per_m, q) * metres
+            k += 1
+
+
+class _Reference(_ReferenceLights, ea._Reference):
     """Float64: exact emission terms, the lights' in-scattering with a float64 shadow march."""
 
     def __init__(self, inputs, integrator: SingleScattering) -> None:
@@ -357,39 +441,6 @@ class _Reference(ea._Reference):
                 self.transmittance_along(centres, *self.geometry(i, centres)[:2]).reshape(vol.shape)
                 for i in range(len(self.lights))
             ]
-
-    def g_at(self, p: NDArray) -> float | NDArray:
-        """The Henyey–Greenstein g at positions p (m, 3): the constant, or the grid's."""
-        g = self.inputs.volume.phase_g
-        return g if isinstance(g, float) else trilinear(g, p)
-
-    def geometry(self, index: int, p: NDArray) -> tuple[NDArray, NDArray, NDArray | float]:
-        """(unit directions toward light ``index``, march lengths in voxels, 1/r² in 1/m²)."""
-        vol = self.inputs.volume
-        light, where, _ = self.lights[index]
-        if isinstance(light, DirectionalLight):
-            length = np.maximum(_exit_voxels(p.T, where, vol.shape, np.minimum), 0.0)
-            return np.broadcast_to(where, p.shape), length, 1.0
-        v = where - p
-        r = np.maximum(np.linalg.norm(v, axis=1), 1e-6)
-        d = v / r[:, None]
-        _, t_box = rays.clip_to_box(p, d, np.asarray(vol.shape, dtype=np.float64))
-        return d, np.clip(t_box, 0.0, r), 1.0 / (r * vol.voxel_size_m) ** 2
-
-    def transmittance_along(self, p: NDArray, d: NDArray, length: NDArray, dt=None) -> NDArray:
-        vol = self.inputs.volume
-        dt = self.inputs.settings.step_voxels if dt is None else dt
-        tau, k = np.zeros(len(p)), 0
-        while True:
-            a = k * dt
-            live = (a < length) & (tau < MAX_SHADOW_DEPTH)
-            if not live.any():
-                return np.exp(-tau)
-            b = np.minimum(a + dt, length[live])
-            q = p[live] + d[live] * (0.5 * (a + b))[:, None]
-            sigma_t = trilinear(vol.absorption_per_m, q) + trilinear(vol.scattering_per_m, q)
-            tau[live] += sigma_t * (b - a) * vol.voxel_size_m
-            k += 1
 
     def direct(self, p, view) -> NDArray:
         """The directional and point lights' part of J at p seen along unit ``view`` (m, 3)."""
@@ -430,9 +481,7 @@ class _Reference(ea._Reference):
     def step(self, segment: Segment, xyz, tr) -> NDArray[np.bool_]:
         vol, inputs = self.inputs.volume, self.inputs
         r, p, ds_m = segment.r, segment.p, segment.ds_m
-        kappa, sigma_s = trilinear(vol.absorption_per_m, p), trilinear(vol.scattering_per_m, p)
-        temp, sampled = trilinear(vol.temperature_K, p), ea._sampled(inputs, p)
-        emits = ea._present(kappa, sampled) & (temp >= inputs.lut.t_min_K)
+        kappa, sigma_s, temp, sampled, emits = self.medium(p)
         eta = self.emitted(kappa, temp, sampled, emits)
         if vol.emission_scale is not None:
             eta *= trilinear(vol.emission_scale, p)[:, None]
