@@ -1,6 +1,7 @@
 """Render the pictures of docs/scattering.md: the fire demo dark and sunlit; the campfire and
 explosion demos with their smoke lit (by their own fire, a sky and a sun) beside the same frame
-with ``--max-bounces 0``, each pair at one exposure; and pbrt-v4's fire-lit cloud beside ours.
+with ``--max-bounces 0``, each pair at one exposure; pbrt-v4's fire-lit cloud beside ours; a
+shadow under a point sun and a sun disk; grey and Rayleigh scattering in spectral bins.
 
     python scripts/scattering_gallery.py --out docs          # docs/scattering/*.png
     python scripts/scattering_gallery.py --out /tmp/x --quick
@@ -68,6 +69,47 @@ def lit_demo(name: str, size: int) -> dict[str, tuple[inc.HDRImage, DisplaySetti
     return {f"{name}_dark": (dark, display), f"{name}_lit": (bright, display)}
 
 
+def _shadow_scene(n: int) -> inc.Volume:
+    """A thin smoke floor under a dense, dark ball (the shadow caster), n voxels of 1 cm wide."""
+    x, y, z = (np.indices((n, (3 * n) // 4, n)) + 0.5) / n
+    ball = (x - 0.5) ** 2 + (y - 0.55) ** 2 + (z - 0.5) ** 2 < 0.09**2
+    floor = (y > 0.04) & (y < 0.12)
+    cold = inc.Volume.from_arrays(np.zeros(x.shape), absorption=np.where(ball, 300.0, 0.2),
+                                  voxel_size_m=1.0 / n)  # fmt: skip
+    return cold.with_scattering(np.where(floor, 12.0, 0.0), phase_g=0.2)
+
+
+def shadow_pair(size: int) -> dict[str, tuple[inc.HDRImage, DisplaySettings | None]]:
+    """The ball's shadow on the floor under a point sun and a 10° disk (the real sun: 0.53°),
+    at one exposure: the disk's penumbra."""
+    volume = _shadow_scene(32 if size < 64 else 96)
+    camera = inc.Camera(eye=(0.0, 0.9, 1.1), target=(0.0, -0.3, 0.0), fov_deg=45.0)
+    settings = inc.RenderSettings(width=size, height=size)
+    images = {}
+    for name, diameter in (("shadow_point", 0.0), ("shadow_disk", 10.0)):
+        sun = DirectionalLight((0.35, 1.0, 0.25), 1e4, angular_diameter_deg=diameter)
+        lit = SingleScattering(lights=(sun,))
+        images[name] = inc.render(volume, camera, settings, integrator=lit)
+    display = _fixed(images["shadow_point"], None)
+    return {name: (image, display) for name, image in images.items()}
+
+
+def rayleigh_pair(size: int) -> dict[str, tuple[inc.HDRImage, DisplaySettings | None]]:
+    """The fire demo's sunlit smoke in 16 spectral bins: grey scattering (β = 0) beside
+    Rayleigh's σ_s ∝ λ^−4 (β = 4), one exposure."""
+    scene = SCENES["fire"]
+    volume = scene.build(None)
+    camera = scene.camera() if scene.camera else None
+    settings = inc.RenderSettings(width=size, height=size)
+    sunlit = SingleScattering(lights=(SUN,), spectral_bins=16)
+    images = {}
+    for name, beta in (("fire_grey", 0.0), ("fire_rayleigh", 4.0)):
+        lit = volume.with_scattering(albedo=ALBEDO, phase_g=PHASE_G, scattering_alpha=beta)
+        images[name] = inc.render(lit, camera, settings, integrator=sunlit)
+    display = _fixed(images["fire_grey"], scene.display)
+    return {name: (image, display) for name, image in images.items()}
+
+
 def pbrt_pair(quick: bool) -> dict[str, tuple[inc.HDRImage, DisplaySettings | None]]:
     """pbrt-v4's D2 (all orders, 8192 spp, 85 s on 2 threads: its JSON) and ours (8 paths, ~4 s)."""
 
@@ -91,7 +133,7 @@ def main(argv: Sequence[str] | None = None) -> list[Path]:
     page = PageImages(args.out, "scattering", "scripts/scattering_gallery.py")
     size = 32 if args.quick else 320
     images = {**fire_pair(size), **lit_demo("campfire", size), **lit_demo("explosion", size),
-              **pbrt_pair(args.quick)}  # fmt: skip
+              **pbrt_pair(args.quick), **shadow_pair(size), **rayleigh_pair(size)}  # fmt: skip
     written = [
         page.add(name, display_pixels(image, display), name.replace("_", ", "))
         for name, (image, display) in images.items()
