@@ -40,6 +40,25 @@ if ! env -u PYTHONPATH /usr/bin/python3 -c "import pyopenvdb" >/dev/null 2>&1; t
 fi
 
 python=${PYTHON:-python3}
+
+# pidng (the camera extra's DNG writer) is published only as source with a C extension: building
+# it needs a C compiler and the Python headers (Debian/Ubuntu: gcc, python3-dev).
+has_headers() {
+    "$python" -c 'import os, sys, sysconfig
+sys.exit(not os.path.isfile(os.path.join(sysconfig.get_paths()["include"], "Python.h")))'
+}
+if ! command -v cc >/dev/null || ! has_headers; then
+    if command -v apt-get >/dev/null; then
+        sudo=""; [ "$(id -u)" -eq 0 ] || sudo="sudo"
+        echo "setup: installing gcc and python3-dev (pidng, the DNG writer, is built from source)"
+        $sudo apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq gcc python3-dev >/dev/null
+    else
+        echo "setup: warning: no C compiler or Python headers; pidng (DNG output) will not" \
+             "build (macOS: xcode-select --install)" >&2
+    fi
+fi
+
 [ -x .venv/bin/python ] || "$python" -m venv .venv
 .venv/bin/python -m pip install -q --upgrade pip
 .venv/bin/python -m pip install -q -e ".[dev]"
