@@ -37,13 +37,14 @@ FLOORS: tuple[tuple[str, ...], ...] = (
     # the display pipeline (colorimetry; a Planckian white from spectra); the fire solver
     # (Volumes out, frame files through io; its settings files parsed by io.textfiles)
     ("spectra", "imaging", "simulation"),
-    # emission models (over spectra); the ready-made scenes (volumes, cameras, display settings)
-    ("emission", "scenes"),
+    # emission models (over spectra); the ready-made scenes (volumes, cameras, display settings);
+    # a camera's sensor (its spectral curves on the CIE grid, an observer of its own)
+    ("emission", "scenes", "sensor"),
     # render(): models, volume and camera → HDRImage (backends, and soon renderer/integrators/)
     ("renderer",),
     # products over the renderer: scene files → Volume and settings, sequences, the public API,
-    # saving images
-    ("config", "animation", "api", "output"),
+    # saving images, a camera's raw exposure, temperature from raw images
+    ("config", "animation", "api", "output", "photograph", "pyrometry"),
     # frames as Dask tasks (through api and config)
     ("cluster",),
     # entry points: the benchmark, a fire's frames rendered (simulation over animation and

@@ -47,9 +47,37 @@ class ColourMatchingFunctions:
 DATA = Path(__file__).with_name("data")
 
 
-@functools.cache
+#: Observers registered at run time (a camera's channels: ``camera.sensor``), by name.
+_REGISTERED: dict[str, ColourMatchingFunctions] = {}
+
+
+def register_observer(prefix: str, weights: NDArray) -> str:
+    """Register three weighting functions on the CIE grid (360–830 nm, 1 nm; (471, 3)) as an
+    observer and return its name, ``prefix`` + a SHA-256 of the weights: the renderer then
+    integrates K_m Σ L_λ w(λ) Δλ per channel instead of XYZ (tables cached on disk by name, so
+    the name is the weights')."""
+    import hashlib
+
+    grid = _cie(next(iter(OBSERVERS))).wavelength_nm
+    values = np.ascontiguousarray(weights, dtype=np.float64)
+    if values.shape != (grid.size, 3) or not np.isfinite(values).all() or (values < 0).any():
+        raise ValueError(f"observer weights must be finite, >= 0, shape ({grid.size}, 3)")
+    name = f"{prefix}-{hashlib.sha256(values.tobytes()).hexdigest()[:16]}"
+    values.setflags(write=False)
+    _REGISTERED[name] = ColourMatchingFunctions(name, grid, values)
+    return name
+
+
 def cmfs(observer: str = "cie1931_2") -> ColourMatchingFunctions:
-    """Colour matching functions of ``observer`` (``"cie1931_2"`` default, or ``"cie1964_10"``)."""
+    """Colour matching functions of ``observer`` (``"cie1931_2"`` default, or ``"cie1964_10"``,
+    or a name :func:`register_observer` returned)."""
+    if observer in _REGISTERED:
+        return _REGISTERED[observer]
+    return _cie(observer)
+
+
+@functools.cache
+def _cie(observer: str) -> ColourMatchingFunctions:
     _validate.choice(observer, "observer", tuple(OBSERVERS))
     rows = np.loadtxt(DATA / f"cmf_{observer}.csv", delimiter=",", dtype=np.float64)
     wavelength, values = rows[:, 0].copy(), np.ascontiguousarray(rows[:, 1:])
