@@ -141,15 +141,16 @@ def advect(
     points: Sequence[Array] | None = None,
     carried_by: Sequence[Array] | None = None,
     ambient: float | None = None,
+    ambient_sides: Sequence[bool] | None = None,
 ) -> Field:
     """``q`` carried by ``velocity`` (cells/s) over ``dt`` (s): semi-Lagrangian (Stam 1999:
     q(x − u(x)Δt), trilinear), MacCormack-corrected if ``maccormack`` (Selle et al. 2008: the
     forward value plus half the error of tracing it back, clamped to the 8 values it was
     interpolated from). ``points``: the samples' positions (cells; default: ``q``'s layout's);
     ``carried_by``: where each takes its velocity from (default: where it is); ``ambient``: the
-    value of air that flows in through an open side (x−, x+, y−, y+, z−, z+ in ``open_sides``;
-    default: the edge value extended, right for velocities). The correction needs the forward
-    trace inside the domain: where it leaves (gas flowing out of an open side), the
+    value of air that flows in through an open side (x−, x+, y−, y+, z−, z+ in ``open_sides``,
+    or only those of ``ambient_sides``; default: the edge value extended). The correction needs
+    the forward trace inside the domain: where it leaves (gas flowing out of an open side), the
     semi-Lagrangian value stays — else the clamped return sample holds the outflow back — and so
     it does where ambient air flows in."""
     points = positions(ops, q.layout) if points is None else points
@@ -157,7 +158,8 @@ def advect(
     v = [sample(ops, c.values, c.layout, at) for c in velocity]
     ops.evaluate(*v)  # stored: else each kernel reading it gathers it again (24 gathers)
     back = [points[a] - v[a] * dt for a in range(3)]
-    entering = None if ambient is None else outside(back, velocity.shape, open_sides)  # air in
+    sides = open_sides if ambient_sides is None else ambient_sides
+    entering = None if ambient is None else outside(back, velocity.shape, sides)  # air in
     if not maccormack:
         return q.like(_where(ops, entering, ambient, sample(ops, q.values, q.layout, back)))
     forward, low, high = sample(ops, q.values, q.layout, back, with_range=True)
