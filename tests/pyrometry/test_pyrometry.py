@@ -11,7 +11,8 @@ import pytest
 
 import incandescent as inc
 from incandescent.photograph import photograph
-from incandescent.pyrometry import RatioTable, calibrate, temperature_map
+from incandescent.pyrometry import RatioTable, calibrate, superpixels, temperature_map
+from incandescent.pyrometry.abel import radial_temperature, self_absorption_corrected
 from incandescent.pyrometry.table import channel_rates, emissivity
 from incandescent.scenes import laminar
 from incandescent.sensor import Sensor
@@ -40,7 +41,7 @@ def test_a_blackbody_image_gives_back_its_temperature(temperature_K, exposure_s)
     noisy = temperature_map(noisy_shot.mosaic, sensor, table)
     error = noisy.temperature_K[noisy.usable] - temperature_K
     sigma = float(np.median(noisy.sigma_K[noisy.usable]))
-    assert abs(error.mean()) < 3 * sigma / np.sqrt(error.size)
+    assert abs(error.mean()) < 3 * sigma / np.sqrt(error.size / 4)  # cells share pixels
     assert error.std() == pytest.approx(sigma, rel=0.15)
 
 
@@ -87,23 +88,75 @@ def _emission_weighted_T(volume, sensor) -> np.ndarray:
 
 
 def test_the_flame_s_line_of_sight_temperature_is_its_emission_weighted_one():
-    """Calibrated (the model's own scale, 1), thick soot solved per pixel, noise off: of the
-    usable superpixels (σ_T ≤ 20 K, 20 % of the image) at least 97 % lie within ±30 K of the
-    emission-weighted path temperature (measured 98.1 %, mean −16 K: the rest, weak pixels at
-    the soot ring's top and bottom with σ_T ≈ 19–20 K, up to 66 K off; with σ_T ≤ 15 K all
-    3555 lie within 29.9 K). The thin-soot ratio alone is biased −22 K (the ring's
-    self-absorption, τ₅₅₀ ≈ 0.4 along its chords). Noise on, the scatter about the noise-free
-    estimate is the predicted σ_T within 25 %."""
+    """Calibrated (the model's own scale, 1), thick soot solved per pixel, noise off: every
+    usable superpixel with σ_T ≤ 15 K (17 % of the image) lies within ±30 K of the emission-
+    weighted path temperature (measured worst 27.8 K, mean −16 K), and with σ_T ≤ 20 K (24 %)
+    at least 99 % do (measured 99.6 %, worst 46 K: weak pixels at the soot ring's top and
+    bottom). The thin-soot ratio alone is biased −22 K and 14 % of its pixels miss ±30 K: the
+    ring's self-absorption, τ₅₅₀ ≈ 0.4 along its chords. Noise on, the scatter about the
+    noise-free estimate is the predicted σ_T within 25 %."""
     volume, sensor, shot = _flame_shot(False)
     table = RatioTable.of(sensor, alpha=laminar.SOOT_ALPHA)
     truth = _emission_weighted_T(volume, sensor)
+    strict = temperature_map(shot.mosaic, sensor, table, calibration=1.0, max_sigma_K=15.0)
+    assert strict.usable.mean() > 0.15
+    worst = np.abs(strict.temperature_K - truth)[strict.usable].max()
+    assert worst <= 30.0
     clean = temperature_map(shot.mosaic, sensor, table, calibration=1.0, max_sigma_K=20.0)
     usable = clean.usable
-    assert usable.mean() > 0.15
     error = np.abs(clean.temperature_K[usable] - truth[usable])
-    assert (error <= 30.0).mean() >= 0.97
+    assert (error <= 30.0).mean() >= 0.99
     _, _, noisy_shot = _flame_shot(True)
     noisy = temperature_map(noisy_shot.mosaic, sensor, table, calibration=1.0, max_sigma_K=20.0)
     both = noisy.usable & usable
     scatter = (noisy.temperature_K - clean.temperature_K)[both] / noisy.sigma_K[both]
     assert 0.75 < scatter.std() < 1.25
+
+
+def _radial_truth(field) -> tuple[np.ndarray, np.ndarray]:
+    """(true T, soot volume fraction) at the radial field's radii and the image rows' heights."""
+    rows = field.temperature_K.shape[0]
+    heights = (np.arange(rows)[::-1] + 0.5) * VOXEL_M
+    return laminar.fields(field.radius_m[None, :], heights[:, None])
+
+
+def test_abel_inversion_recovers_the_radial_temperature_of_a_thin_flame():
+    """The same flame with a fiftieth of its soot (optically thin, as Abel inversion assumes):
+    where the soot ring holds ≥ 30 % of its peak and the green emission is ≥ 5 % of its peak,
+    BASEX's radial T lies within ±50 K of the field (measured worst 11 K over 907 cells)."""
+    volume = laminar.laminar_flame(VOXEL_M)
+    thin = volume.replace(absorption_per_m=(volume.absorption_per_m * 0.02).astype(np.float32))
+    n, ny, _ = thin.shape
+    centre = laminar.HEIGHT_M / 2
+    camera = inc.Camera(eye=(0.0, centre, 1.0), target=(0.0, centre, 0.0),
+                        projection="orthographic", ortho_height_m=ny * VOXEL_M)  # fmt: skip
+    sensor = Sensor(exposure_s=0.17)
+    shot = photograph(thin, camera, inc.RenderSettings(width=2 * n, height=2 * ny, jitter=False),
+                      sensor, "cpu", noise=False)  # fmt: skip
+    table = RatioTable.of(sensor, alpha=laminar.SOOT_ALPHA)
+    field = radial_temperature(superpixels(shot.mosaic, sensor), table, VOXEL_M)
+    truth, fv = _radial_truth(field)
+    sooty = (fv > 0.3 * laminar.PEAK_FV) & np.isfinite(field.temperature_K)
+    assert sooty.sum() > 500
+    assert np.abs(field.temperature_K[sooty] - truth[sooty]).max() < 50.0
+
+
+def test_abel_inversion_of_the_sooty_flame_needs_its_self_absorption_corrected():
+    """The flame at Santoro's soot loading (τ₅₅₀ ≈ 0.4 along chords through the ring), where
+    f_v ≥ 30 % of its peak and the green emission ≥ 5 % of its peak (834 of 2453 such cells):
+    plain inversion is biased (measured mean −25 K, 84 % within ±50 K, 95th percentile 114 K);
+    corrected for self-absorption (8 iterations) at least 95 % lie within ±50 K (measured
+    97.4 %, mean 0.0 K, 95th percentile 10 K; the worst, 166 K, on the ring's peak at
+    mid-height, where its own attenuation is strongest)."""
+    _, sensor, shot = _flame_shot(False)
+    table = RatioTable.of(sensor, alpha=laminar.SOOT_ALPHA)
+    cells = superpixels(shot.mosaic, sensor)
+    plain = radial_temperature(cells, table, VOXEL_M)
+    fixed = self_absorption_corrected(cells, table, VOXEL_M, sensor, calibration=1.0)
+    errors = []
+    for field in (plain, fixed):
+        truth, fv = _radial_truth(field)
+        sooty = (fv > 0.3 * laminar.PEAK_FV) & np.isfinite(field.temperature_K)
+        errors.append(np.abs(field.temperature_K[sooty] - truth[sooty]))
+    assert (errors[1] <= 50.0).mean() >= 0.95
+    assert np.percentile(errors[1], 95) < 0.5 * np.percentile(errors[0], 95)

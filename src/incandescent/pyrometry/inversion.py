@@ -34,55 +34,61 @@ class Superpixels:
 
 
 def superpixels(mosaic: NDArray, sensor: Sensor) -> Superpixels:
-    """The mosaic's 2×2 cells as (R, G, B) net electrons with variances, each channel estimated
+    """The mosaic's 2×2 cells as (R, G, B) net electrons with variances, every channel estimated
     at the cell's centre; a cell is saturated when any of its pixels reached the white level or
     the full well.
 
-    A Bayer cell's own R and B pixels sit half a pixel diagonally off its centre, which in a
-    flame's steep edges biases their ratio by hundreds of kelvin. So G is the mean of the cell's
-    two greens (centred by symmetry), and R and B are interpolated bilinearly on their own
-    sub-lattices to the centre, a quarter of their spacing away: weights 9/16, 3/16, 3/16, 1/16
-    (edges clamped). The variances are Σ wᵢ² σᵢ² of the same weights."""
+    A Bayer cell's own R, G and B pixels sit at different places: in a flame's steep edges
+    their plain ratio is biased by hundreds of kelvin. So each channel is bilinearly demosaiced
+    to every pixel (the classic kernels: [1 2 1; 2 4 2; 1 2 1]/4 on the red and blue sites,
+    [0 1 0; 1 4 1; 0 1 0]/4 on the green) and averaged over the cell — one linear filter per
+    channel, applied here as its 4×4 weights on the mosaic so that the variance is exactly
+    Σ wᵢ² σᵢ² (edges mirrored, which keeps the Bayer phase)."""
     dn = np.asarray(mosaic, dtype=np.float64)
     height, width = dn.shape
     gross = (dn - sensor.black_level_dn) * sensor.gain_e_per_dn
     net = gross - sensor.dark_current_e_s * sensor.exposure_s
     var = np.maximum(gross, 0.0) + sensor.read_noise_e**2 + sensor.gain_e_per_dn**2 / 12.0
     full = (dn >= sensor.white_level_dn) | (gross >= sensor.full_well_e - sensor.gain_e_per_dn)
-    cell = np.asarray(PATTERNS[sensor.pattern]).reshape(2, 2)
-    electrons, variance = (
-        np.zeros((height // 2, width // 2, 3)),
-        np.zeros((height // 2, width // 2, 3)),
-    )
-    for c in range(3):
-        electrons[..., c], variance[..., c] = _centred(net, var, cell == c)
+    electrons, variance = _resampled(net, var, np.asarray(PATTERNS[sensor.pattern]).reshape(2, 2))
     saturated = np.asarray(full.reshape(height // 2, 2, width // 2, 2).any(axis=(1, 3)))
     return Superpixels(electrons, variance, saturated)
 
 
-def _centred(net: NDArray, var: NDArray, where: NDArray[np.bool_]) -> tuple[NDArray, NDArray]:
-    """One channel at every cell's centre and its variance: the mean of its two pixels in the
-    cell (green), or its one pixel's sub-lattice interpolated a quarter spacing toward the
-    centre (red, blue)."""
-    sites = np.argwhere(where)
-    planes = [(net[y::2, x::2], var[y::2, x::2]) for y, x in sites]
-    if len(planes) == 2:
-        return 0.5 * (planes[0][0] + planes[1][0]), 0.25 * (planes[0][1] + planes[1][1])
-    (y, x), (value, variance) = sites[0], planes[0]
-    dy, dx = (1 if y == 0 else -1), (1 if x == 0 else -1)  # toward the centre
-    out_v, out_var = np.zeros_like(value), np.zeros_like(value)
-    for wy, sy in ((0.75, 0), (0.25, dy)):
-        for wx, sx in ((0.75, 0), (0.25, dx)):
-            out_v += wy * wx * _shifted(value, sy, sx)
-            out_var += (wy * wx) ** 2 * _shifted(variance, sy, sx)
-    return out_v, out_var
+#: Bilinear demosaicing's kernels on a channel's own sites: red and blue, green.
+_KERNEL_RB = np.array([[1.0, 2.0, 1.0], [2.0, 4.0, 2.0], [1.0, 2.0, 1.0]]) / 4.0
+_KERNEL_G = np.array([[0.0, 1.0, 0.0], [1.0, 4.0, 1.0], [0.0, 1.0, 0.0]]) / 4.0
 
 
-def _shifted(plane: NDArray, dy: int, dx: int) -> NDArray:
-    """``plane`` read one step along (dy, dx), the edge repeated."""
-    padded = np.pad(plane, 1, mode="edge")
-    h, w = plane.shape
-    return padded[1 + dy : 1 + dy + h, 1 + dx : 1 + dx + w]
+def _cell_weights(cell: NDArray, channel: int) -> NDArray:
+    """The weights (4×4, offsets −1…2 from the cell's top-left pixel) of the mosaic's pixels in
+    channel ``channel``'s demosaiced value averaged over the cell."""
+    kernel = _KERNEL_G if channel == 1 else _KERNEL_RB
+    out = np.zeros((4, 4))
+    for u in range(2):
+        for v in range(2):
+            out[u : u + 3, v : v + 3] += kernel / 4.0
+    mask = np.array([[cell[oy % 2, ox % 2] == channel for ox in range(-1, 3)]
+                     for oy in range(-1, 3)])  # fmt: skip
+    return out * mask
+
+
+def _resampled(net: NDArray, var: NDArray, cell: NDArray) -> tuple[NDArray, NDArray]:
+    """Each channel's cell value (:func:`_cell_weights`) and its variance, (H/2, W/2, 3)."""
+    height, width = net.shape
+    padded_net, padded_var = np.pad(net, 2, mode="reflect"), np.pad(var, 2, mode="reflect")
+    total = np.zeros((height // 2, width // 2, 3))
+    total_var = np.zeros_like(total)
+    for c in range(3):
+        weights = _cell_weights(cell, c)
+        for (iy, ix), w in np.ndenumerate(weights):
+            if w == 0.0:
+                continue
+            rows = slice(1 + iy, 1 + iy + height, 2)
+            cols = slice(1 + ix, 1 + ix + width, 2)
+            total[..., c] += w * padded_net[rows, cols]
+            total_var[..., c] += w * w * padded_var[rows, cols]
+    return total, total_var
 
 
 @dataclass(frozen=True, eq=False)
