@@ -94,6 +94,36 @@ def start_backend(path: Path, backend: str | None) -> str:
     return resolve_backend(backend)
 
 
+def photograph_scene(scene: Scene, source: Path, limits: Limits | None = None):
+    """The raw exposure of ``scene`` through its ``[sensor]`` (``photograph``), written to its
+    ``[output]`` path (.dng, .tiff, .npy, with a JSON sidecar), every output checked first;
+    (the ``Photograph``, the files written)."""
+    from incandescent.io.atomic import check_output
+    from incandescent.io.raw import RAW_SUFFIXES, sidecar_path, write_raw
+    from incandescent.photograph import photograph
+
+    out, section = scene.output, scene.sensor
+    assert section is not None, "a scene with a [sensor]"
+    if out.path is None:
+        raise ValueError("no output: give -o OUT.dng|.tiff|.npy or [output] path")
+    inputs = [source, scene.volume.path]
+    check_output(out.path, out.overwrite, RAW_SUFFIXES, "raw image", inputs=inputs)
+    check_output(sidecar_path(out.path), out.overwrite, (".json",), "sidecar", inputs=inputs)
+    if out.layers or out.denoise or out.batches > 1 or out.accumulate or out.stats:
+        raise ValueError("a [sensor] render writes one raw exposure: no layers, denoise, "
+                         "batches, accumulate or stats")  # fmt: skip
+    backend = start_backend(scene.volume.path, out.backend)
+    settings = scene.render_settings()
+    if section.width_px is not None:
+        settings = settings.replace(width=section.width_px, height=section.height_px)
+    volume = volume_from_section(scene.volume, scene.remap(), limits, settings.layout)
+    camera = scene.camera_for(volume)  # type: ignore[arg-type]
+    shot = photograph(volume, camera, settings, section.sensor(), backend, section.seed,
+                      section.noise, section.spectral_bins)  # fmt: skip
+    written = write_raw(out.path, shot.raw(), out.overwrite)
+    return shot, [written, sidecar_path(written)]
+
+
 def render_scene(
     scene: Scene, source: Path, limits: Limits | None = None, progress=None
 ) -> tuple[HDRImage, list[Path]]:

@@ -14,6 +14,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 from rich.console import Console
 from rich.markup import escape
@@ -153,9 +154,25 @@ def render(o: Given) -> None:
     with _guarded():
         limits = _limits(o)
         scene = _scene(o.source, overrides(o))
-        with _render_progress() as progress:
-            image, written = api.render_scene(scene, o.source, limits, progress)
-    _summary(image, written)
+        if scene.sensor is not None:
+            shot, written = api.photograph_scene(scene, o.source, limits)
+        else:
+            with _render_progress() as progress:
+                image, written = api.render_scene(scene, o.source, limits, progress)
+    if scene.sensor is not None:
+        _raw_summary(shot, written)
+    else:
+        _summary(image, written)
+
+
+def _raw_summary(shot, written: list[Path]) -> None:
+    height, width = shot.mosaic.shape
+    peak = shot.electrons.max(axis=(0, 1))
+    say(f"exposed {width}×{height} {shot.sensor.pattern} for {shot.sensor.exposure_s:g} s: "
+        f"brightest R/G/B {peak[0]:.0f}/{peak[1]:.0f}/{peak[2]:.0f} e⁻ (full well "
+        f"{shot.sensor.full_well_e:g})")  # fmt: skip
+    for path in written:
+        say(f"  wrote {path}")
 
 
 @app.command()
@@ -389,6 +406,30 @@ def _simulation_progress(frames: int) -> Iterator[Callable]:
 
     with bar:
         yield on_frame
+
+
+@app.command()
+@command(flags.PYROMETRY)
+def pyrometry(o: Given) -> None:
+    """Map the temperature of a raw camera image by two-colour (red/green) pyrometry."""
+    from incandescent.pyrometry.files import pyrometry_file
+
+    with _guarded():
+        sensor, shape = None, None
+        if o.sensor is not None:
+            from incandescent.config.schema import SensorSection
+
+            section = SensorSection(**flags._sensor(o.sensor))
+            sensor = section.sensor()
+            if section.width_px is not None:
+                shape = (section.height_px, section.width_px)
+        result, written = pyrometry_file(o.raw, o.output, sensor, shape, o.alpha, o.calibration,
+                                         o.max_sigma, o.overwrite)  # fmt: skip
+    usable = result.usable
+    median = float(np.nanmedian(result.temperature_K)) if usable.any() else float("nan")
+    say(f"{usable.sum():,} of {usable.size:,} superpixels usable ({result.saturated.sum():,} "
+        f"saturated); median T {median:.0f} K")  # fmt: skip
+    say(f"  wrote {written}")
 
 
 @app.command()

@@ -82,6 +82,28 @@ def _sun(text: str, flag: str) -> list[dict]:
     return [{"type": "directional", "direction": list(values[:3]), "illuminance_lux": values[3]}]
 
 
+def _sensor(text: str) -> dict:
+    """``--sensor``: a shipped sensitivity's name, or a .toml/.json file's ``[sensor]`` table
+    (or the whole file)."""
+    from incandescent.io.textfiles import parse_json, parse_toml
+
+    path = Path(text)
+    if path.suffix.lower() not in (".toml", ".json"):
+        return {"sensitivity": text}
+    try:
+        body = path.read_text()
+    except OSError as error:
+        raise fail(f"--sensor {text}: cannot read it ({error.strerror})") from None
+    try:
+        data = (parse_toml if path.suffix.lower() == ".toml" else parse_json)(body, path)
+    except ValueError as error:
+        raise fail(str(error)) from None
+    table = data.get("sensor", data) if isinstance(data, dict) else None
+    if not isinstance(table, dict):
+        raise fail(f"--sensor {text}: expected a table of sensor keys")
+    return table
+
+
 def _number_or_name(text: str, flag: str) -> float | str:
     """A number (a constant), else a grid's name."""
     try:
@@ -401,6 +423,8 @@ def overrides(given: Given) -> dict:
     if given.values.get("environment") is not None:
         out.setdefault("light", []).append(_environment(given.values["environment"]))
     _bounces(given.values.get("max_bounces"), out)
+    if given.values.get("sensor") is not None:
+        out["sensor"] = {**_sensor(given.values["sensor"]), **out.get("sensor", {})}
     if given.values.get("sun_temperature") is not None:
         if given.values.get("sun") is None:
             raise fail("--sun-temperature needs --sun X,Y,Z,LUX")
@@ -440,10 +464,30 @@ ACCUMULATE = (
     Flag("accumulate", bool, "Continue the output .exr: average more batches into it (the same "
          "scene and settings, seed aside).", "output.accumulate", default=False),
 )
+SENSOR = (
+    Flag("sensor", str, "Expose a raw image through a camera sensor: a shipped one "
+         "(nikon_d5100) or a .toml/.json file of [sensor] keys; the output .dng|.tiff|.npy."),
+    Flag("exposure_time", float, "The sensor's exposure time in s [1e-4].", "sensor.exposure_s"),
+)
+PYROMETRY = (
+    Flag("raw", Path, "A raw image: .dng .tiff .npy (its JSON sidecar beside it).", default=...,
+         argument=True),
+    Flag("output", Path, "Temperature map: .exr (RGB = T in K; channels T, sigma_T, tau_550, "
+         "usable).", default=..., decls=("--output", "-o")),
+    SENSOR[0].but(help="The camera: a shipped one (nikon_d5100) or a .toml/.json of [sensor] "
+                  "keys (width_px/height_px: the size the raw file must have) [the raw file's "
+                  "sidecar]."),
+    Flag("alpha", float, "Soot's spectral exponent α of ε ∝ λ^−α (0: a grey body).",
+         default=1.39),
+    Flag("calibration", float, "This camera's measured / modelled signal (from a blackbody "
+         "image): also soot's τ₅₅₀ and the thick-soot T."),
+    Flag("max_sigma", float, "Largest σ_T in K of a usable pixel.", default=50.0),
+    OVERWRITE.but(key=None, default=False, help="Replace an existing output."),
+)
 LAYERS = Flag("layers", bool, "EXR layers emission, scatter.direct, scatter.indirect and one per "
                "light (a scattering render; 3 + lights renders).", "output.layers", default=False)
-RENDER = (SCENE_SOURCE, OUTPUT, LAYERS, DENOISE, ACCUMULATE, FILM, VOLUME, EMITTERS, LIGHTING,
-          CAMERA, INTEGRATOR, DISPLAY, BLUR, FPS, LIMITS)
+RENDER = (SCENE_SOURCE, OUTPUT, LAYERS, DENOISE, ACCUMULATE, SENSOR, FILM, VOLUME, EMITTERS,
+          LIGHTING, CAMERA, INTEGRATOR, DISPLAY, BLUR, FPS, LIMITS)
 DEMO = (
     Flag("name", str, f"Scene: {', '.join(DEMOS)}.", default="fire", argument=True),
     Flag("output", Path, "Output: .png/.exr for images (default NAME.png); .mp4, .gif or a "

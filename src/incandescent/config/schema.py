@@ -508,6 +508,62 @@ class OutputSection(_Section):
         return self
 
 
+class FilterSection(_Section):
+    """One filter in front of a ``[sensor]`` (``sensor.Filter``)."""
+
+    kind: Literal["nd", "bandpass", "ir_cut", "csv"]
+    density: float = 0.0
+    centre_nm: float = 550.0
+    width_nm: float = 10.0
+    peak: float = 1.0
+    edge_nm: float = 680.0
+    path: str | None = None
+
+
+class SensorSection(_Section):
+    """A camera's sensor (``sensor.Sensor``; a render with one writes a raw image), the noise
+    draw (``noise``, ``seed``) and the spectral bins its render takes."""
+
+    sensitivity: str = "nikon_d5100"
+    f_number: float = 8.0
+    lens_transmittance: float = 0.9
+    filters: list[FilterSection] = Field(default_factory=list)
+    exposure_s: float = 1e-4
+    pixel_pitch_um: float = 4.78
+    peak_qe: float = 0.4
+    gain_e_per_dn: float = 2.0
+    full_well_e: float = 30000.0
+    read_noise_e: float = 3.0
+    dark_current_e_s: float = 1.0
+    black_level_dn: int = 600
+    bits: int = 14
+    pattern: str = "RGGB"
+    cos4: bool = False
+    noise: bool = True
+    seed: int = 0
+    spectral_bins: int = Field(default=32, ge=1, le=471)
+    #: The sensor's size in pixels (both or neither): the render's film, and what a raw file
+    #: read for pyrometry must measure.
+    width_px: int | None = Field(default=None, ge=2)
+    height_px: int | None = Field(default=None, ge=2)
+
+    @model_validator(mode="after")
+    def _check(self) -> SensorSection:
+        _checked(self.sensor)
+        if (self.width_px is None) != (self.height_px is None):
+            raise _fail("give the sensor's width_px and height_px together")
+        return self
+
+    def sensor(self):
+        """The ``Sensor`` this section describes."""
+        from incandescent.sensor import Filter, Sensor
+
+        skip = {"filters", "noise", "seed", "spectral_bins", "width_px", "height_px"}
+        fields = self.model_dump(exclude=skip)
+        filters = tuple(Filter(**f.model_dump()) for f in self.filters)
+        return Sensor(**fields, filters=filters)
+
+
 class Scene(_Section):
     """A validated scene: build with :func:`incandescent.config.load_scene` or
     :func:`incandescent.config.scene_from_dict`."""
@@ -520,6 +576,7 @@ class Scene(_Section):
     light: list[LightSection] = Field(default_factory=list)
     display: DisplaySection = Field(default_factory=DisplaySection)
     output: OutputSection = Field(default_factory=OutputSection)
+    sensor: SensorSection | None = None
 
     def render_settings(self) -> RenderSettings:
         return self.render.settings()
