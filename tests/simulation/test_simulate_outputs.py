@@ -121,7 +121,8 @@ def test_a_full_disk_names_the_frame_and_leaves_nothing_truncated(tmp_path, suff
     assert "No space left on device" in error or "does not read back" in error, stderr
     if suffix == ".npz" and free_kib == 4:  # the frame itself fails, before its checkpoint
         assert "checkpoint" not in error, error
-    assert sorted(p.name for p in kept.iterdir()) == ["checkpoint.npz", f"fire_0001{suffix}"]
+    names = ["checkpoint.npz", "diagnostics.jsonl", f"fire_0001{suffix}"]
+    assert sorted(p.name for p in kept.iterdir()) == names
     assert _checkpoint_frame(kept) == 1
     from incandescent import api
 
@@ -330,7 +331,8 @@ def test_a_run_gone_non_finite_later_keeps_its_frames_to_resume(tmp_path, monkey
     out = tmp_path / "fire"
     line = _error(_simulate(out, "--frames", 3), "frame 2", "temperature_K")
     assert "one of buoyancy_m_s2_K" in line  # no key out of range: all the driving ones named
-    assert sorted(p.name for p in out.iterdir()) == ["checkpoint.npz", "fire_0001.npz"]
+    names = ["checkpoint.npz", "diagnostics.jsonl", "fire_0001.npz"]
+    assert sorted(p.name for p in out.iterdir()) == names
     assert _checkpoint_frame(out) == 1
 
 
@@ -358,3 +360,27 @@ def test_the_settings_json_round_trip_keeps_presets_valid():
 
     for name, settings in PRESETS.items():
         assert from_changes(name, json.loads(settings.model_dump_json())) == settings
+
+
+# --- issue 28: each frame's diagnostics beside the frames, shown by `info FOLDER` -------------
+
+
+def test_info_on_a_simulation_folder_shows_its_diagnostics_and_a_capped_frame(tmp_path):
+    """`simulate` writes one record per frame to diagnostics.jsonl and prints a frame's CFL and
+    speed; a frame over the step cap is a warning line; `info FOLDER` shows the table (capped
+    frames named) and `--json` the records; resuming keeps the records one per frame."""
+    out = tmp_path / "fire"
+    path = _settings(tmp_path, "max_steps_per_frame = 1\ncfl = 0.25")
+    result = _simulate(out, "--settings", path, "--frames", 2)
+    _ok(result)
+    text = " ".join(result.output.split())
+    assert "CFL" in text and "max |u|" in text and "hit max_steps_per_frame" in text
+    _ok(_simulate(out, "--settings", path, "--frames", 3))  # resumed: frame 3 added
+    shown = runner.invoke(app, ["info", str(out), "--json"])
+    _ok(shown)
+    frames = json.loads(shown.output)["frames"]
+    assert [r["frame"] for r in frames] == [1, 2, 3] and all(r["capped"] for r in frames)
+    table = runner.invoke(app, ["info", str(out)])
+    _ok(table)
+    assert "CFL max" in table.output and "hit max_steps_per_frame" in " ".join(table.output.split())
+    _error(runner.invoke(app, ["info", str(tmp_path)]), "without diagnostics.jsonl")

@@ -232,6 +232,9 @@ def info(o: Given) -> None:
     from incandescent import api
 
     path, axes = o.path, o.axes
+    if path.is_dir():
+        _simulation_info(path, o.as_json)
+        return
     with _guarded():
         if path.suffix.lower() in SCENE_SUFFIXES:  # a scene: describe the volume file it names
             spec = _scene(path, {}).volume
@@ -249,6 +252,50 @@ def info(o: Given) -> None:
     _info_table(path, grids)
     for text in notes:
         console.print(f"[yellow]note:[/] {escape(text)}", highlight=False, soft_wrap=True)
+
+
+def _simulation_info(folder: Path, as_json: bool) -> None:
+    """``info`` of a simulation's folder: its per-frame diagnostics (``diagnostics.jsonl``)."""
+    from incandescent.simulation import diagnostics
+
+    with _guarded():
+        if not (folder / diagnostics.DIAGNOSTICS).is_file():
+            name = diagnostics.DIAGNOSTICS
+            raise ValueError(f"{folder}: a folder without {name}; info reads a volume file, or "
+                             "a folder written by incandescent simulate")  # fmt: skip
+        records = diagnostics.read(folder)
+    if as_json:
+        typer.echo(json.dumps({"path": str(folder), "frames": records}, indent=2))
+        return
+    _diagnostics_table(folder, records)
+
+
+#: The columns of ``info FOLDER``: (record key, heading, format).
+DIAGNOSTIC_COLUMNS = (
+    ("frame", "frame", "{}"), ("time_s", "t (s)", "{:.3f}"), ("steps", "steps", "{}"),
+    ("cfl_max", "CFL max", "{:.2f}"), ("max_speed_m_s", "max |u| (m/s)", "{:.3g}"),
+    ("kinetic_energy_J", "kinetic (J)", "{:.3g}"), ("hot_volume_m3", "> 1000 K (m³)", "{:.3g}"),
+    ("pressure_iterations_max", "CG iterations", "{}"),
+    ("pressure_residual_max", "CG residual", "{:.1e}"),
+)  # fmt: skip
+
+
+def _diagnostics_table(folder: Path, records: list[dict]) -> None:
+    from rich.table import Table
+
+    table = Table(title=escape(f"{folder}: simulation diagnostics"))
+    for _, heading, _ in DIAGNOSTIC_COLUMNS:
+        table.add_column(heading)
+    shown = lambda r, k, f: "—" if r.get(k) is None else f.format(r[k])  # noqa: E731
+    for r in records:
+        row = [shown(r, key, fmt) for key, _, fmt in DIAGNOSTIC_COLUMNS]
+        table.add_row(*row, style="yellow" if r.get("capped") else None)
+    Console(width=180).print(table)
+    capped = [r["frame"] for r in records if r.get("capped")]
+    if capped:
+        listed = ", ".join(map(str, capped[:20]))
+        console.print(f"[yellow]note:[/] {len(capped)} frames hit max_steps_per_frame (over the "
+                      f"CFL setting): {listed}", highlight=False)  # fmt: skip
 
 
 def _info_table(path: Path, grids) -> None:
@@ -395,17 +442,31 @@ def _simulation_progress(frames: int) -> Iterator[Callable]:
     def on_frame(report) -> None:
         done["steps"] += len(report.steps)
         done["seconds"] += report.seconds
-        last = report.steps[-1]
+        last, record = report.steps[-1], report.record
         steps_s = done["steps"] / max(done["seconds"], 1e-9)
-        rate = f"{steps_s:.1f} steps/s, pressure {last.pressure_iterations} iterations"
+        rate = (
+            f"{steps_s:.1f} steps/s, CFL {record['cfl_max']:.2f}, max |u| "
+            + f"{record['max_speed_m_s']:.3g} m/s, pressure {last.pressure_iterations} iterations"
+        )
         bar.update(task, completed=report.frame, rate=rate)
+        if record["capped"]:
+            console.print(f"[yellow]warning:[/] frame {report.frame}: {_capped(record)}",
+                          highlight=False)  # fmt: skip
         if not console.is_terminal:
             say(f"  frame {report.frame}: {len(report.steps)} steps in {report.seconds:.2f} s, "
+                f"CFL {record['cfl_max']:.2f}, max |u| {record['max_speed_m_s']:.3g} m/s, "
                 f"pressure {last.pressure_iterations} iterations to "
                 f"{last.pressure_residual:.1e} -> {report.path}")  # fmt: skip
 
     with bar:
         yield on_frame
+
+
+def _capped(record: dict) -> str:
+    """The step cap's warning: the frame's steps, its CFL number and what to change."""
+    return (f"hit max_steps_per_frame ({record['steps']} steps): its last step moved gas "
+            f"{record['cfl_max']:.2f} cells, over the cfl setting; raise max_steps_per_frame "
+            "or lower the driving settings")  # fmt: skip
 
 
 @app.command()

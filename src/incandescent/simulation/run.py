@@ -1,15 +1,17 @@
 """Running a fire: frames written as volumes, a checkpoint after each, resume after interruption.
 
 ``simulate(settings, resolution, frames, out_dir)`` advances the solver frame by frame (sub-steps
-limited by the CFL number), writes ``fire_####.npz`` (or ``.vdb``, written by OpenVDB) with
-temperature (K), absorption (1/m, from soot), the CH and C₂ fractions of the reaction zone and the
-velocity (m/s), each atomically, then ``checkpoint.npz`` (every field of the solver's state, the
-settings, the frame format and the frame). A fresh run writes checkpoint frame 0 before its first
-frame, so every frame in the folder is accounted for by a checkpoint. A second run with the same
-settings, resolution and format continues after the last checkpointed frame; other settings or
-another format are refused unless ``overwrite``, and so is any existing frame file this run did
-not write (all of them without a checkpoint). A frame that goes non-finite is not written: the
-error names it and the settings keys that likely drove it."""
+that keep the CFL number; ``max_steps_per_frame`` a reported safety limit), writes
+``fire_####.npz`` (or ``.vdb``, written by OpenVDB) with temperature (K), absorption (1/m, from
+soot), the CH and C₂ fractions of the reaction zone and the velocity (m/s), each atomically, then
+``checkpoint.npz`` (every field of the solver's state, the settings, the frame format and the
+frame). A fresh run writes checkpoint frame 0 before its first frame, so every frame in the folder
+is accounted for by a checkpoint. A second run with the same settings, resolution and format
+continues after the last checkpointed frame; other settings or another format are refused unless
+``overwrite``, and so is any existing frame file this run did not write (all of them without a
+checkpoint). A frame that goes non-finite is not written: the error names it and the settings keys
+that likely drove it. Each frame's diagnostics (speed, CFL, energy, hot volume, pressure solves,
+steps) go to ``diagnostics.jsonl`` (``diagnostics``)."""
 
 from __future__ import annotations
 
@@ -19,12 +21,13 @@ import math
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from incandescent.io.atomic import OutputError, atomic_write, check_output
+from incandescent.simulation import diagnostics
 from incandescent.simulation.frames import frame_fields
 from incandescent.simulation.settings import FireSettings, likely_unstable
 from incandescent.simulation.solver import FireSolver, FireState, StepReport
@@ -36,12 +39,14 @@ FRAME_FORMATS = (".npz", ".vdb")
 
 @dataclass(frozen=True)
 class FrameReport:
-    """One written frame: its path, the solver steps it took and their reports, wall seconds."""
+    """One written frame: its path, the solver steps it took and their reports, wall seconds,
+    and its diagnostics record (``diagnostics.frame_record``, also in ``diagnostics.jsonl``)."""
 
     frame: int
     path: Path
     steps: list[StepReport]
     seconds: float
+    record: dict = field(default_factory=dict)
 
 
 def frame_path(out_dir: Path, frame: int, suffix: str = ".npz") -> Path:
@@ -78,19 +83,30 @@ def _identity(settings: FireSettings, resolution: int) -> str:
 
 
 def advance_frame(solver: FireSolver, state: FireState) -> tuple[FireState, list[StepReport]]:
-    """Steps to the next frame: Δt = CFL / max speed (cells/s), at most one frame, at least a
-    frame / ``max_steps_per_frame``."""
+    """Steps to the next frame, each with its CFL number in its report: the rest of the frame
+    in the fewest equal steps that keep Δt·(max|u| + S)/h ≤ ``cfl`` (the speed measured before
+    each step). ``max_steps_per_frame`` is a safety limit: its last step takes whatever of the
+    frame is left, over the CFL number — reported (``StepReport.cfl``, the frame's diagnostics
+    record ``capped``), never silent."""
     s = solver.settings
-    remaining, reports = 1.0 / s.fps, []
-    floor = remaining / s.max_steps_per_frame
-    while remaining > 1e-12:
+    remaining, reports = 1.0 / s.fps, list[StepReport]()
+    while remaining > 1e-12 * (1.0 / s.fps):
         speed = max(solver.ops.max_abs(v.values) for v in state.velocity)
-        speed += s.flame_speed_m_s / solver.h
-        dt = min(remaining, max(s.cfl / max(speed, 1e-9), floor))
+        speed += s.flame_speed_m_s / solver.h  # cells/s
+        dt = _sub_step(remaining, speed, s.cfl, s.max_steps_per_frame - len(reports))
         state, report = solver.step(state, dt)
-        reports.append(report)
+        reports.append(replace(report, cfl=dt * speed))
         remaining -= dt
     return state, reports
+
+
+def _sub_step(remaining_s: float, speed_cells_s: float, cfl: float, steps_left: int) -> float:
+    """Δt (s): ``remaining_s`` split into the fewest equal steps of at most ``cfl`` cells at
+    ``speed_cells_s``; all of it when one step is left under the cap."""
+    if steps_left <= 1:
+        return remaining_s
+    needed = math.ceil(remaining_s * speed_cells_s / cfl * (1.0 - 1e-12))
+    return remaining_s / max(needed, 1)
 
 
 def simulate(
@@ -160,10 +176,12 @@ class _Run:
         if os.path.lexists(path) and not overwrite:
             done, state = read_checkpoint(path, self.identity, self.suffix, self.solver)
             self._check_frames(done, frames, resumed=True, overwrite=False)
+            diagnostics.keep_until(self.out_dir, done)
             return done, state
         self._check_frames(0, frames, resumed=False, overwrite=overwrite)
         state = self.solver.initial_state()
         self._save(0, state)
+        diagnostics.keep_until(self.out_dir, 0)
         self.fresh = True
         return 0, state
 
@@ -191,7 +209,10 @@ class _Run:
             began = time.perf_counter()
             state, steps = advance_frame(self.solver, state)
             path = self._commit(frame, state)
-            report = FrameReport(frame, path, steps, time.perf_counter() - began)
+            seconds = time.perf_counter() - began
+            record = diagnostics.frame_record(self.solver, state, frame, path, steps, seconds)
+            diagnostics.append(self.out_dir, record)
+            report = FrameReport(frame, path, steps, seconds, record)
             written.append(report)
             if on_frame is not None:
                 on_frame(report)
@@ -228,6 +249,7 @@ class _Run:
             return
         if self.fresh:
             (self.out_dir / CHECKPOINT).unlink(missing_ok=True)
+            (self.out_dir / diagnostics.DIAGNOSTICS).unlink(missing_ok=True)
         for folder in created:
             with contextlib.suppress(OSError):
                 folder.rmdir()

@@ -66,7 +66,13 @@ class FireSettings(_Model):
     cfl: float = Field(
         default=2.0, gt=0, le=8, description="max cells a sample is advected per step"
     )
-    max_steps_per_frame: int = Field(default=8, ge=1, le=256)
+    max_steps_per_frame: int = Field(
+        default=64,
+        ge=1,
+        le=1024,
+        description="safety limit: a frame that needs more steps takes its rest in the last one, "
+        "over the CFL number, and says so (progress line, diagnostics.jsonl)",
+    )
     maccormack: bool = True
     flame_speed_m_s: float = Field(default=0.5, ge=0, description="S: the reaction front's speed")
     density_ratio: float = Field(

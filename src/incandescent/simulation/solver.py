@@ -87,6 +87,7 @@ class StepReport:
     pressure_iterations: int
     pressure_residual: float
     max_divergence: float  # after projection, max |∇·u − D| in 1/s (cells per s per cell)
+    cfl: float = 0.0  # Δt·(max|u| + S)/h of the step, set by ``run.advance_frame``
 
 
 def grid_shape(settings: FireSettings, resolution: int) -> tuple[tuple[int, int, int], float]:
