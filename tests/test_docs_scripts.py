@@ -80,3 +80,13 @@ def test_scattering_gallery_renders_the_lit_smoke_brighter(tmp_path):
     assert (rayleigh[..., 2] > rayleigh[..., 0]).sum() > (grey[..., 2] > grey[..., 0]).sum()
     ours, theirs = pixels["d2_ours"].mean(), pixels["d2_pbrt"].mean()
     assert abs(ours / theirs - 1) < 0.1
+
+
+def test_pyrometry_gallery_maps_the_flame_and_the_fire(tmp_path, capsys):
+    """The pyrometry page's pictures: the flame, its raw close-up, the maps, the Abel figure and
+    the simulated fire's; the fire's line-of-sight error is the larger (at this coarse size too)."""
+    written = _load_script("pyrometry_gallery").main(["--out", str(tmp_path), "--quick"])
+    names = [p.name.removesuffix(".png") for p in written]
+    assert names == ["flame_eye", "flame_raw", "flame_maps", "flame_abel", "fire_maps"]
+    figures = dict(line.split(": ") for line in capsys.readouterr().out.strip().splitlines())
+    assert abs(float(figures["mean_error"])) < abs(float(figures["fire_mean"]))
