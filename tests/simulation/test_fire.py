@@ -14,7 +14,7 @@ from incandescent.simulation import FireSettings, FireSolver, Source, preset
 from incandescent.simulation.fields import Field
 from incandescent.simulation.operators import advect, divergence
 
-QUIET = {"sources": (), "buoyancy_m_s2_K": 0.0, "vorticity": 0.0, "noise": 0.0}
+QUIET = {"sources": (), "gravity_m_s2": 0.0, "vorticity": 0.0, "noise": 0.0}
 
 
 def _solver(backend="reference", resolution=16, **changes) -> FireSolver:
@@ -222,7 +222,7 @@ def test_temperature_stays_between_air_and_the_flame_maximum():
 
 
 def test_a_hot_blob_rises():
-    solver = _solver(resolution=24, buoyancy_m_s2_K=0.01, cooling_K_s=0.0)
+    solver = _solver(resolution=24, gravity_m_s2=9.80665, cooling_K_s=0.0)
     x, y, z = _cells(solver)
     hot = 300.0 + 900.0 * np.exp(-((x - 12) ** 2 + (y - 8) ** 2 + (z - 12) ** 2) / (2 * 2.0**2))
     state = replace(solver.initial_state(), temperature=solver.cell_field(_field(solver, hot)))

@@ -239,7 +239,8 @@ def _settings(tmp_path: Path, text: str, name: str = "s.toml") -> Path:
             ["sources.0.centre", "outside the domain", "0.3 × 0.6 × 0.3 m"],
         ),
         ("t_max_K = 1e30", ["t_max_K", "less than or equal to 100000", "emission tables"]),
-        ("buoyancy_m_s2_K = 1e30", ["buoyancy_m_s2_K", "faster than sound", "at most 59.1"]),
+        ("gravity_m_s2 = 1e30", ["gravity_m_s2", "faster than sound", "at most 1.77e+04"]),
+        ("buoyancy_m_s2_K = 0.01", ["buoyancy_m_s2_K was removed", "gravity_m_s2"]),
         ("[[sources]]\nkind = 'nozzle'\njet_m_s = 900.0", ["sources.0.jet_m_s", "sound"]),
         ("density_ratio = 1e4", ["flame_speed_m_s", "density_ratio", "sound"]),
     ],
@@ -330,7 +331,7 @@ def test_a_run_gone_non_finite_later_keeps_its_frames_to_resume(tmp_path, monkey
     monkeypatch.setattr(run, "frame_fields", poisoned)
     out = tmp_path / "fire"
     line = _error(_simulate(out, "--frames", 3), "frame 2", "temperature_K")
-    assert "one of buoyancy_m_s2_K" in line  # no key out of range: all the driving ones named
+    assert "one of gravity_m_s2" in line  # no key out of range: all the driving ones named
     names = ["checkpoint.npz", "diagnostics.jsonl", "fire_0001.npz"]
     assert sorted(p.name for p in out.iterdir()) == names
     assert _checkpoint_frame(out) == 1

@@ -11,7 +11,7 @@ from scipy.ndimage import gaussian_filter
 
 from incandescent.simulation import FireSettings, FireSolver, preset
 
-QUIET = {"sources": (), "buoyancy_m_s2_K": 0.0, "vorticity": 0.0, "noise": 0.0}
+QUIET = {"sources": (), "gravity_m_s2": 0.0, "vorticity": 0.0, "noise": 0.0}
 
 
 def _kinetic(solver: FireSolver, state) -> float:

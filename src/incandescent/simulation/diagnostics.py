@@ -20,18 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from incandescent.io.atomic import atomic_write
+from incandescent.simulation.settings import air_density_kg_m3
 
 DIAGNOSTICS = "diagnostics.jsonl"
 #: Gas hotter than this (K) counts as flame in ``hot_volume_m3`` (the presets' ignition point:
 #: the fuel itself is held at it, so only burning gas and hot products count).
 HOT_K = 1000.0
-#: Standard atmosphere (Pa), the molar mass of dry air (kg/mol), the gas constant (J/(mol·K)).
-P_ATM_PA, M_AIR_KG_MOL, R_J_MOL_K = 101_325.0, 0.028_964_7, 8.314_462_618
-
-
-def air_density_kg_m3(t_air_K: float) -> float:
-    """ρ = p M / (R T) of dry air at one atmosphere (ideal gas): 1.177 kg/m³ at 300 K."""
-    return P_ATM_PA * M_AIR_KG_MOL / (R_J_MOL_K * t_air_K)
 
 
 def frame_record(solver, state, frame: int, path: Path, steps, seconds: float) -> dict:

@@ -55,6 +55,24 @@ class Obstacle(_Model):
     radius_m: float = Field(default=0.05, gt=0)
 
 
+#: Standard atmosphere (Pa), the molar mass of dry air (kg/mol), the gas constant (J/(mol·K)).
+P_ATM_PA, M_AIR_KG_MOL, R_J_MOL_K = 101_325.0, 0.028_964_7, 8.314_462_618
+
+
+def air_density_kg_m3(t_air_K: float) -> float:
+    """ρ = p M / (R T) of dry air at one atmosphere (ideal gas): 1.177 kg/m³ at 300 K."""
+    return P_ATM_PA * M_AIR_KG_MOL / (R_J_MOL_K * t_air_K)
+
+
+#: Standard gravity (m/s²; CGPM 1901).
+STANDARD_GRAVITY_M_S2 = 9.80665
+#: Keys of settings before issue 28 that became physics: key → what replaced it.
+REMOVED_KEYS = {
+    "buoyancy_m_s2_K": "buoyancy is now the ideal gas's, g·(T − T_air)/T_air (set gravity_m_s2)",
+    "soot_weight_m_s2": "soot's weight is now its mass, soot κ / soot_mass_extinction_m2_kg",
+}
+
+
 class FireSettings(_Model):
     """Nguyen, Fedkiw & Jensen 2002 ("Physically Based Modeling and Animation of Fire"), with
     Fedkiw, Stam & Jensen 2001's buoyancy and vorticity confinement."""
@@ -86,8 +104,16 @@ class FireSettings(_Model):
     cooling_K_s: float = Field(
         default=3000.0, ge=0, description="c_T of the radiative cooling term"
     )
-    buoyancy_m_s2_K: float = Field(default=0.006, ge=0, description="β: upward acceleration per K")
-    soot_weight_m_s2: float = Field(default=0.5, ge=0, description="α: downward pull per unit soot")
+    gravity_m_s2: float = Field(
+        default=STANDARD_GRAVITY_M_S2,
+        ge=0,
+        description="g: buoyancy is g·(T − T_air)/T_air − g·(soot mass)/ρ_air (ideal gas)",
+    )
+    soot_mass_extinction_m2_kg: float = Field(
+        default=8700.0,
+        gt=0,
+        description="σ_m: soot's extinction per kg (m²/kg); its mass is soot κ / σ_m",
+    )
     vorticity: float = Field(default=3.0, ge=0, description="ε of vorticity confinement")
     soot_rate_per_s: float = Field(default=2.0, ge=0, description="soot made per s in hot products")
     soot_min_K: float = Field(default=1200.0, gt=0)
@@ -103,6 +129,11 @@ class FireSettings(_Model):
     seed: int = Field(default=0, ge=0)
     sources: tuple[Source, ...] = (Source(),)
     obstacles: tuple[Obstacle, ...] = ()
+
+    def buoyancy_m_s2_K(self) -> float:
+        """β·g: the Boussinesq upward acceleration per kelvin of excess temperature, g/T_air
+        (an ideal gas's expansion coefficient is β = 1/T; 0.0327 m/s²/K at 300 K)."""
+        return self.gravity_m_s2 / self.t_air_K
 
     @model_validator(mode="after")
     def _check(self) -> FireSettings:
@@ -143,11 +174,11 @@ def _check_below_sound(settings: FireSettings) -> None:
     where = f"faster than sound ({c:.0f} m/s at t_air_K); the solver models slow "
     where += "(incompressible) flames"
     height, heat = settings.domain_m[1], settings.t_max_K - settings.t_air_K
-    rise = math.sqrt(2.0 * settings.buoyancy_m_s2_K * heat * height)
+    rise = math.sqrt(2.0 * settings.buoyancy_m_s2_K() * heat * height)
     if rise > c:
-        most = c * c / (2.0 * heat * height)
+        most = c * c * settings.t_air_K / (2.0 * heat * height)
         raise ValueError(
-            f"buoyancy_m_s2_K: {settings.buoyancy_m_s2_K:g} lifts gas at t_max_K to about "
+            f"gravity_m_s2: {settings.gravity_m_s2:g} lifts gas at t_max_K to about "
             f"{rise:.3g} m/s over the domain's {height:g} m height, {where}: use at most {most:.3g}"
         )
     expansion = (settings.density_ratio - 1.0) * settings.flame_speed_m_s
@@ -166,7 +197,6 @@ PRESETS: dict[str, FireSettings] = {
         domain_m=(0.08, 0.16, 0.08),
         flame_speed_m_s=0.15,
         cooling_K_s=6000.0,
-        buoyancy_m_s2_K=0.004,
         vorticity=1.0,
         noise=0.05,
         soot_rate_per_s=1.0,
@@ -189,7 +219,6 @@ PRESETS: dict[str, FireSettings] = {
         density_ratio=8.0,
         t_max_K=2400.0,
         cooling_K_s=1500.0,
-        buoyancy_m_s2_K=0.01,
         soot_rate_per_s=4.0,
         sources=(Source(kind="sphere", centre=(0.5, 0.2, 0.5), radius_m=0.4, stop_s=0.15),),
     ),
@@ -199,8 +228,7 @@ PRESETS: dict[str, FireSettings] = {
 #: Keys that drive the gas (accelerations, expansion, confinement, soot's weight) or let one
 #: step carry it further: where a run goes non-finite, the culprit is among them.
 DRIVING_KEYS = (
-    "buoyancy_m_s2_K",
-    "soot_weight_m_s2",
+    "gravity_m_s2",
     "soot_rate_per_s",
     "vorticity",
     "flame_speed_m_s",
@@ -239,6 +267,8 @@ def from_changes(name: str, changes: Mapping[str, Any], source: str | None = Non
         raise ValueError(f"unknown fire preset {name!r}; expected one of: {', '.join(PRESETS)}")
     data = PRESETS[name].model_dump(mode="json") | dict(changes)
     where = f"fire settings ({name}{', from ' + source if source else ''})"
+    for key in REMOVED_KEYS.keys() & data.keys():
+        raise ValueError(f"{where}: {key} was removed: {REMOVED_KEYS[key]}")
     try:
         text = json.dumps(data, default=_jsonable, allow_nan=True)
         return FireSettings.model_validate_json(text)

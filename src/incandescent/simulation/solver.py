@@ -10,7 +10,8 @@ One step (``FireSolver.step``), in the order of Fedkiw et al. 2001 §3 and Nguye
 3. the reaction front moves into the fuel at the flame speed S: φ is advected with the fuel's
    velocity (sampled 2.5 cells into the fuel near the front), then φ ← φ + S·Δt (Nguyen eqs. 2–3
    with |∇φ| = 1, φ a distance in cells; no re-initialisation);
-4. forces: buoyancy a_y = β(T − T_air) − α·soot (Fedkiw eq. 8) and vorticity confinement
+4. forces: buoyancy a_y = g(T − T_air)/T_air − g·c_soot/ρ_air (Boussinesq, ideal gas: β = 1/T_air;
+   Fedkiw eq. 8 with physical constants) and vorticity confinement
    f = ε h (N × ω), N = ∇|ω|/|∇|ω|| (Fedkiw eq. 11); inflow through an open side slowed by its
    Bernoulli pressure drop (``_entrainment``);
 5. projection: ∇·u = D with D = (ρ_f/ρ_h − 1)·S·δ_ε(φ), the volume the burning fuel adds at the
@@ -42,7 +43,7 @@ from incandescent.simulation.operators import (
     gradient,
     vorticity_confinement,
 )
-from incandescent.simulation.settings import FireSettings
+from incandescent.simulation.settings import FireSettings, air_density_kg_m3
 
 #: Half width of the reaction zone and of the smeared δ(φ), cells.
 FRONT_CELLS = 1.5
@@ -363,9 +364,22 @@ class FireSolver:
         cosine = ops.cos(math.pi * ops.clip(phi, -eps, eps) / eps)
         return near * (1.0 + cosine) / (2.0 * eps)
 
+    def _buoyancy(self, temperature, soot):
+        """Upward acceleration (m/s²) of the Boussinesq approximation with an ideal gas's
+        expansion coefficient β = 1/T_air: a = g (T − T_air)/T_air − g c/ρ_air, where
+        c = soot·κ₁/σ_m is soot's mass per volume (kg/m³; κ₁ = ``soot_kappa_per_m`` of unit soot,
+        σ_m its mass extinction coefficient, 8.7 m²/g: Mulholland & Croarkin 2000, Fire Mater.
+        24:227) and ρ_air the air's density at T_air (ideal gas, one atmosphere). The thermal
+        term is also the exact acceleration of a parcel of hot gas by the ambient's hydrostatic
+        pressure, g(ρ_air − ρ)/ρ with ρ ∝ 1/T."""
+        s = self.settings
+        soot_kg_m3 = soot * (s.soot_kappa_per_m / s.soot_mass_extinction_m2_kg)
+        heavy = s.gravity_m_s2 / air_density_kg_m3(s.t_air_K)
+        return s.buoyancy_m_s2_K() * (temperature - s.t_air_K) - heavy * soot_kg_m3
+
     def _forces(self, velocity, temperature, soot, dt):
         s = self.settings
-        lift = s.buoyancy_m_s2_K * (temperature - s.t_air_K) - s.soot_weight_m_s2 * soot
+        lift = self._buoyancy(temperature, soot)
         velocity = list(velocity)
         at_faces = cell_value_at_faces(self.ops, self.cell_field(lift), 1).values
         velocity[1] = velocity[1] + dt * (1.0 / self.h) * at_faces
