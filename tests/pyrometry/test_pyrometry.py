@@ -122,8 +122,8 @@ def _radial_truth(field) -> tuple[np.ndarray, np.ndarray]:
 
 def test_abel_inversion_recovers_the_radial_temperature_of_a_thin_flame():
     """The same flame with a fiftieth of its soot (optically thin, as Abel inversion assumes):
-    where the soot ring holds ≥ 30 % of its peak and the green emission is ≥ 5 % of its peak,
-    BASEX's radial T lies within ±50 K of the field (measured worst 11 K over 907 cells)."""
+    where the soot ring holds ≥ 30 % of its peak and the green emission is ≥ 10 % of its peak,
+    BASEX's radial T lies within ±50 K of the field."""
     volume = laminar.laminar_flame(VOXEL_M)
     thin = volume.replace(absorption_per_m=(volume.absorption_per_m * 0.02).astype(np.float32))
     n, ny, _ = thin.shape
@@ -143,11 +143,11 @@ def test_abel_inversion_recovers_the_radial_temperature_of_a_thin_flame():
 
 def test_abel_inversion_of_the_sooty_flame_needs_its_self_absorption_corrected():
     """The flame at Santoro's soot loading (τ₅₅₀ ≈ 0.4 along chords through the ring), where
-    f_v ≥ 30 % of its peak and the green emission ≥ 5 % of its peak (834 of 2453 such cells):
-    plain inversion is biased (measured mean −25 K, 84 % within ±50 K, 95th percentile 114 K);
-    corrected for self-absorption (8 iterations) at least 95 % lie within ±50 K (measured
-    97.4 %, mean 0.0 K, 95th percentile 10 K; the worst, 166 K, on the ring's peak at
-    mid-height, where its own attenuation is strongest)."""
+    f_v ≥ 30 % of its peak and the inverted green emission ≥ 10 % of its peak (716 of the 2453
+    cells with that soot): plain inversion is biased (mean −16 K, 90 % within ±50 K); corrected for
+    self-absorption (8 iterations) all lie within ±50 K (measured worst 19.5 K, mean +3.5 K).
+    With the emission threshold at 5 % (834 cells) 97.4 % do: the cells on the threshold's
+    edge, inside the ring, are up to 166 K off."""
     _, sensor, shot = _flame_shot(False)
     table = RatioTable.of(sensor, alpha=laminar.SOOT_ALPHA)
     cells = superpixels(shot.mosaic, sensor)
@@ -158,5 +158,5 @@ def test_abel_inversion_of_the_sooty_flame_needs_its_self_absorption_corrected()
         truth, fv = _radial_truth(field)
         sooty = (fv > 0.3 * laminar.PEAK_FV) & np.isfinite(field.temperature_K)
         errors.append(np.abs(field.temperature_K[sooty] - truth[sooty]))
-    assert (errors[1] <= 50.0).mean() >= 0.95
-    assert np.percentile(errors[1], 95) < 0.5 * np.percentile(errors[0], 95)
+    assert errors[1].size > 600 and errors[1].max() <= 50.0
+    assert errors[0].max() > 50.0  # the correction is needed

@@ -53,7 +53,7 @@ def radial_temperature(
     table: RatioTable,
     pixel_m: float,
     reg: float = DEFAULT_REG,
-    min_fraction: float = 0.05,
+    min_fraction: float = 0.1,
 ) -> RadialField:
     """Invert each channel's superpixel signals (axis vertical, on the middle column) and take
     the red/green ratio of the local emission where the green's is ≥ ``min_fraction`` of its
@@ -109,7 +109,7 @@ def self_absorption_corrected(
     calibration: float = 1.0,
     reg: float = DEFAULT_REG,
     iterations: int = 8,
-    min_fraction: float = 0.05,
+    min_fraction: float = 0.1,
 ) -> RadialField:
     """:func:`radial_temperature` with the flame's self-absorption corrected (see the module):
     κ₅₅₀(r) = e_G(r) / (t·c·ė_G(T(r))) per unit κ₅₅₀, each channel attenuated by
