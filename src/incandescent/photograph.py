@@ -96,3 +96,19 @@ def photograph(
     electrons = sensor.mean_electrons(rates, cos4)
     sensor.check_exposure(electrons)
     return Photograph(sensor.mosaic(electrons, seed, noise), electrons, sensor, noise, seed)
+
+
+def demosaic(raw: RawImage, method: str = "Menon2007") -> NDArray[np.float64]:
+    """The raw image as linear camera RGB at every pixel, DN above black (H, W, 3): for viewing
+    or for tools that want an RGB image. colour-demosaicing's ``Menon2007`` (Menon, Andriani &
+    Calvagno 2007, IEEE TIP 16:132; directional, edge-aware) or ``bilinear`` (the ``camera``
+    extra). Pyrometry does not use it: it estimates each channel at cell centres with exact
+    variances (``pyrometry.superpixels``)."""
+    import colour_demosaicing as cd
+
+    methods = {"Menon2007": cd.demosaicing_CFA_Bayer_Menon2007,
+               "bilinear": cd.demosaicing_CFA_Bayer_bilinear}  # fmt: skip
+    if method not in methods:
+        raise ValueError(f"unknown demosaicing {method!r}; expected one of: {', '.join(methods)}")
+    signal = raw.mosaic.astype(np.float64) - raw.black_level_dn
+    return np.asarray(methods[method](signal, raw.pattern), dtype=np.float64)

@@ -98,3 +98,26 @@ def test_bad_sensors_and_exposures_are_one_line(tmp_path, setup, pattern):
                                  str(tmp_path / "x.dng")])  # fmt: skip
     _one_line_error(result, pattern)
     assert not (tmp_path / "x.dng").exists()
+
+
+def test_a_blackbody_raw_file_calibrates_the_map(tmp_path):
+    """``--blackbody BB.dng --blackbody-k 1500``: the calibration is the blackbody's measured /
+    modelled signal (1 for our own camera, to its noise), recorded in the EXR, and soot's τ₅₅₀
+    comes out (> 1 for a blackbody: optically thick); one flag without the other is one
+    line."""
+    volume = _blackbody_npz(tmp_path / "bb.npz")
+    raw = tmp_path / "bb.dng"
+    result = RUNNER.invoke(app, ["render", str(volume), *CAMERA, "--sensor", "nikon_d5100",
+                                 "--exposure-time", "4e-3", "-o", str(raw)])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "t.exr"
+    result = RUNNER.invoke(app, ["pyrometry", str(raw), "--alpha", "0", "--blackbody", str(raw),
+                                 "--blackbody-k", "1500", "-o", str(out)])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    _, meta, channels = read_exr(out)
+    assert float(meta["calibration"]) == pytest.approx(1.0, abs=0.01)
+    usable = channels["usable"] > 0
+    assert np.nanmedian(channels["tau_550"][usable]) > 1.0  # thick; noise blurs how thick
+    bad = RUNNER.invoke(app, ["pyrometry", str(raw), "--blackbody", str(raw), "-o",
+                              str(tmp_path / "u.exr")])  # fmt: skip
+    _one_line_error(bad, "--blackbody FILE and --blackbody-k K go together")

@@ -107,3 +107,23 @@ def test_bad_sensitivity_curves_are_one_line_naming_the_row(tmp_path, text, mess
     path.write_text(text)
     with pytest.raises(ValueError, match=message):
         Sensor(sensitivity=str(path))
+
+
+@pytest.mark.parametrize("method", ["Menon2007", "bilinear"])
+def test_demosaicing_gives_each_channel_everywhere(method):
+    """A mosaic of three smooth ramps (one per channel, noise off): the demosaiced image's
+    channels are the ramps within 1 % away from the borders."""
+    from incandescent.photograph import demosaic
+
+    sensor = Sensor(pattern="BGGR")
+    y, x = np.mgrid[0:64, 0:64].astype(float)
+    planes = np.stack([2000 + 20 * x, 3000 + 15 * y, 1000 + 10 * (x + y)], axis=-1)
+    mosaic = sensor.mosaic(planes, noise=False)
+    from incandescent.io.raw import RawImage
+
+    raw = RawImage(mosaic, "BGGR", sensor.black_level_dn, sensor.white_level_dn, sensor.bits)
+    rgb = demosaic(raw, method) * sensor.gain_e_per_dn
+    inner = (slice(4, -4), slice(4, -4))
+    np.testing.assert_allclose(rgb[inner], planes[inner], rtol=0.01)
+    with pytest.raises(ValueError, match="unknown demosaicing 'fancy'"):
+        demosaic(raw, "fancy")

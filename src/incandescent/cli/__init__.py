@@ -484,8 +484,13 @@ def pyrometry(o: Given) -> None:
             sensor = section.sensor()
             if section.width_px is not None:
                 shape = (section.height_px, section.width_px)
+        if (o.blackbody is None) != (o.blackbody_k is None):
+            raise ValueError("--blackbody FILE and --blackbody-k K go together")
+        if o.blackbody is not None and o.calibration is not None:
+            raise ValueError("give --calibration or --blackbody, not both")
+        blackbody = None if o.blackbody is None else (o.blackbody, o.blackbody_k)
         result, written = pyrometry_file(o.raw, o.output, sensor, shape, o.alpha, o.calibration,
-                                         o.max_sigma, o.overwrite)  # fmt: skip
+                                         o.max_sigma, o.overwrite, blackbody)  # fmt: skip
     usable = result.usable
     median = float(np.nanmedian(result.temperature_K)) if usable.any() else float("nan")
     say(f"{usable.sum():,} of {usable.size:,} superpixels usable ({result.saturated.sum():,} "

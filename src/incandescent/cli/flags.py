@@ -481,6 +481,9 @@ PYROMETRY = (
          default=1.39),
     Flag("calibration", float, "This camera's measured / modelled signal (from a blackbody "
          "image): also soot's τ₅₅₀ and the thick-soot T."),
+    Flag("blackbody", Path, "A raw image of a blackbody filling the view, with the same "
+         "camera: the calibration (needs --blackbody-k)."),
+    Flag("blackbody_k", float, "The blackbody's temperature in K."),
     Flag("max_sigma", float, "Largest σ_T in K of a usable pixel.", default=50.0),
     OVERWRITE.but(key=None, default=False, help="Replace an existing output."),
 )

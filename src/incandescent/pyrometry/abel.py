@@ -36,6 +36,15 @@ class RadialField:
     emission: NDArray[np.float64]
     temperature_K: NDArray[np.float64]
     radius_m: NDArray[np.float64]
+    #: soot's absorption at 550 nm (1/m) where T is known, with an absolute calibration
+    kappa_550_per_m: NDArray[np.float64] | None = None
+
+    def soot_volume_fraction(self, e_m: float = 0.26) -> NDArray[np.float64]:
+        """f_v = κ₅₅₀ λ / (6π E(m)) at λ = 550 nm (Rayleigh absorption by small soot; E(m) 0.26
+        as Santoro's group used, 0.35–0.4 in later work): the inversion's soot."""
+        if self.kappa_550_per_m is None:
+            raise ValueError("the soot volume fraction needs a calibrated inversion")
+        return self.kappa_550_per_m * 550e-9 / (6.0 * np.pi * e_m)
 
 
 def half_image(image: NDArray) -> NDArray:
@@ -120,11 +129,15 @@ def self_absorption_corrected(
     scale = (550.0 / effective_wavelengths_nm(sensor)) ** table.alpha
     per_kappa = sensor.exposure_s * calibration
     field = radial_temperature(cells, table, pixel_m, reg, min_fraction)
-    for _ in range(iterations):
+
+    def soot(field: RadialField) -> NDArray:
         temp = np.nan_to_num(field.temperature_K, nan=0.0)
         green_unit = channel_rates(sensor, np.maximum(temp, 300.0), emissivity(None, table.alpha))
         kappa = np.where(temp > 0, field.emission[..., 1] / (per_kappa * green_unit[..., 1]), 0.0)
-        kappa = np.maximum(kappa, 0.0)
+        return np.maximum(kappa, 0.0)
+
+    for _ in range(iterations):
+        kappa = soot(field)
         corrected = np.empty_like(measured)
         for c in range(3):
             thin, absorbed = _project(field.emission[..., c], kappa * scale[c], field.radius_m,
@@ -133,7 +146,8 @@ def self_absorption_corrected(
             corrected[..., c] = _unfolded(half_image(measured[..., c]) * gain)
         field = radial_temperature(Superpixels(corrected, cells.variance, cells.saturated),
                                    table, pixel_m, reg, min_fraction)  # fmt: skip
-    return field
+    kappa = np.where(np.isfinite(field.temperature_K), soot(field), np.nan)
+    return RadialField(field.emission, field.temperature_K, field.radius_m, kappa)
 
 
 def _unfolded(half: NDArray) -> NDArray:

@@ -49,6 +49,16 @@ def check_agrees(raw: RawImage, sensor: Sensor, source: Path, shape=None) -> Non
                          f"sensor has {shape[1]}×{shape[0]}")  # fmt: skip
 
 
+def calibration_from(path: Path, temperature_K: float, sensor: Sensor, shape=None) -> float:
+    """The calibration factor from a raw image of a blackbody at ``temperature_K`` filling the
+    view (``calibrate``), checked against the sensor as the measurement is."""
+    from incandescent.pyrometry.inversion import calibrate
+
+    raw = read_raw(path, expected_shape=shape)
+    check_agrees(raw, sensor, path, shape)
+    return calibrate(raw.mosaic, sensor, temperature_K)
+
+
 def pyrometry_file(
     raw_path: Path,
     output: Path,
@@ -58,16 +68,20 @@ def pyrometry_file(
     calibration: float | None = None,
     max_sigma_K: float = 50.0,
     overwrite: bool = False,
+    blackbody: tuple[Path, float] | None = None,
 ):
-    """Read ``raw_path``, map its temperature (``temperature_map``) and write ``output`` (.exr:
-    RGB = T in K, channels T, sigma_T, tau_550, usable; NaN where unusable); (the map, the
-    file written)."""  # fmt: skip
+    """Read ``raw_path``, map its temperature (``temperature_map``; calibrated by
+    ``calibration``, or by ``blackbody``: a raw image of a blackbody and its K) and write
+    ``output`` (.exr: RGB = T in K, channels T, sigma_T, tau_550, usable; NaN where unusable);
+    (the map, the file written)."""
     from incandescent.io.atomic import check_output
 
     check_output(output, overwrite, (".exr",), "temperature map", inputs=[raw_path])
     raw = read_raw(raw_path, expected_shape=shape)
     sensor = sensor or sensor_from_metadata(raw, raw_path)
     check_agrees(raw, sensor, raw_path, shape)
+    if blackbody is not None:
+        calibration = calibration_from(blackbody[0], blackbody[1], sensor, shape)
     result = temperature_map(raw.mosaic, sensor, RatioTable.of(sensor, alpha), calibration,
                              max_sigma_K)  # fmt: skip
     return result, write_map(output, result, alpha, calibration, overwrite)
