@@ -43,8 +43,8 @@ FLOORS: tuple[tuple[str, ...], ...] = (
     # render(): models, volume and camera → HDRImage (backends, and soon renderer/integrators/)
     ("renderer",),
     # products over the renderer: scene files → Volume and settings, sequences, the public API,
-    # saving images, a camera's raw exposure, temperature from raw images
-    ("config", "animation", "api", "output", "photograph", "pyrometry"),
+    # saving images, a camera's raw exposure, temperature from raw images, gradients of renders
+    ("config", "animation", "api", "output", "photograph", "pyrometry", "inverse"),
     # frames as Dask tasks (through api and config)
     ("cluster",),
     # entry points: the benchmark, a fire's frames rendered (simulation over animation and
