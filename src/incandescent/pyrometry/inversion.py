@@ -141,7 +141,8 @@ def thick_solution(ratio, green_rate, sensor: Sensor, alpha: float):
     :data:`TAU_GRID` the T its ratio implies, then τ where that T's green signal crosses the
     measured one (linear interpolation; NaN outside the grid)."""
     temps = np.arange(700.0, 3501.0, 2.0)
-    rates = channel_rates(sensor, temps[:, None], emissivity(TAU_GRID, alpha)[None, :, :])
+    eps = emissivity(TAU_GRID, alpha)  # (τ, λ): one τ at a time keeps the table (T, λ) small
+    rates = np.stack([channel_rates(sensor, temps, e) for e in eps], axis=1)  # (T, τ, 3)
     table_ratio = rates[..., 0] / rates[..., 1]  # (T, τ), falling with T
     r = np.asarray(ratio, dtype=np.float64).ravel()
     g = np.asarray(green_rate, dtype=np.float64).ravel()
