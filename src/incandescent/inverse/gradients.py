@@ -38,12 +38,13 @@ DT_K = 1e-2
 
 @dataclass(frozen=True, eq=False)
 class Gradients:
-    """A loss and its gradients: ``loss``, the per-ray XYZ (n, 3, float64) and the pixel each
-    ray belongs to, and ∂loss/∂T (K⁻¹) and ∂loss/∂κ (m) per voxel, shaped as the volume."""
+    """A loss and its gradients: ``loss``, the per-ray XYZ (n, 3, float64) and each row's camera
+    ray (``ray``: x·H + y is pixel (y, x)), and ∂loss/∂T (K⁻¹) and ∂loss/∂κ (m) per voxel, shaped
+    as the volume."""
 
     loss: float
     xyz: NDArray[np.float64]
-    pixel: NDArray[np.int64]
+    ray: NDArray[np.int64]
     temperature_K: NDArray[np.float64]
     absorption_per_m: NDArray[np.float64]
 
@@ -87,7 +88,7 @@ def _check(volume, settings) -> None:
 
 
 def forward(volume, camera, settings) -> tuple[_Taping, NDArray, NDArray]:
-    """The float64 reference render, taped: (program, per-ray XYZ (n, 3), pixel per ray)."""
+    """The float64 reference render, taped: (program, per-ray XYZ (n, 3), their camera rays)."""
     _check(volume, settings)
     integrator = _Taped()
     render(volume, camera, settings, "reference", integrator=integrator)
@@ -101,11 +102,19 @@ def gradients(volume, camera, settings, weights: NDArray) -> Gradients:
     """The linear loss Σ_pixels weights·XYZ (``weights`` (H, W, 3): ∂loss/∂XYZ of the image, e.g.
     2·(XYZ − target) of a least-squares loss) and its exact gradients with respect to the
     volume's temperature and absorption grids."""
-    program, xyz, pixel = forward(volume, camera, settings)
-    g = np.asarray(weights, dtype=np.float64).reshape(-1, 3)[pixel]  # ∂loss/∂L per ray
+    program, xyz, ray = forward(volume, camera, settings)
+    g = ray_ordered(weights)[ray]  # ∂loss/∂L per ray
     loss = float(np.sum(g * xyz))
     grad_t, grad_k = _backward(program, g)
-    return Gradients(loss, xyz, pixel, grad_t, grad_k)
+    return Gradients(loss, xyz, ray, grad_t, grad_k)
+
+
+def ray_ordered(image: NDArray) -> NDArray[np.float64]:
+    """An (H, W, 3) image as per-camera-ray rows (H·W, 3): camera rays run column-major
+    (``film.resolve_pixels``), ray x·H + y being pixel (y, x)."""
+    return np.ascontiguousarray(np.swapaxes(np.asarray(image, dtype=np.float64), 0, 1)).reshape(
+        -1, 3
+    )
 
 
 def _backward(program: _Taping, g: NDArray) -> tuple[NDArray, NDArray]:
