@@ -130,15 +130,18 @@ class DeviceGradients:
     absorption_per_m: NDArray[np.float32]
 
 
-def gradients_on(backend: str, volume, camera, settings, weights: NDArray) -> DeviceGradients:
+def gradients_on(
+    backend: str, volume, camera, settings, weights: NDArray, image=None
+) -> DeviceGradients:
     """The gradients of the loss Σ_pixels weights·XYZ on ``backend`` (cpu, cuda): the forward
-    render, then the replay adjoint with each ray's L and g."""
+    render (or ``image``, that render already made), then the replay adjoint with each ray's
+    L and g."""
     if settings.supersample != 1 or volume.absorption_source != "grid":
         raise ValueError("the adjoint needs one ray per pixel and a κ grid of its own")
     if volume.species or volume.emission_scale is not None:
         raise ValueError("gradients cover blackbody emission–absorption: no species lines or "
                          "emission scale yet")  # fmt: skip
-    image = render(volume, camera, settings, backend)
+    image = image or render(volume, camera, settings, backend)
     assert image.xyz is not None, "emission–absorption renders radiance"
     totals, upstream = ray_ordered(image.xyz), ray_ordered(weights)  # indexed by camera ray
     adjoint = AdjointEmissionAbsorption(upstream=upstream, totals=totals)
