@@ -90,3 +90,9 @@ def test_pyrometry_gallery_maps_the_flame_and_the_fire(tmp_path, capsys):
     assert names == ["flame_eye", "flame_raw", "flame_maps", "flame_abel", "fire_maps"]
     figures = dict(line.split(": ") for line in capsys.readouterr().out.strip().splitlines())
     assert abs(float(figures["mean_error"])) < abs(float(figures["fire_mean"]))
+
+
+def test_inverse_gallery_shows_the_gradients(tmp_path):
+    """The gradient picture is written (a float64 and a Dr.Jit adjoint of a 24³ flame)."""
+    written = _load_script("inverse_gallery").main(["--out", str(tmp_path)])
+    assert [p.name for p in written] == ["gradients.png"]
