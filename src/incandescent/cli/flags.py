@@ -508,7 +508,8 @@ DEMO = (
     LIMITS,
 )
 INFO = (
-    Flag("path", Path, "A volume file: .npy .npz .vdb .nvdb .h5 .hdf5 .nc.", default=...,
+    Flag("path", Path, "A volume file (.npy .npz .vdb .nvdb .h5 .hdf5 .nc), or a folder "
+         "written by simulate (its per-frame diagnostics).", default=...,
          argument=True),
     AXES,
     AS_JSON,
