@@ -1,24 +1,24 @@
 """Gradients of a render with respect to its volume: the exact adjoint of emission–absorption,
-in float64 on the reference march (the ground truth the Dr.Jit adjoint will be checked
-against).
+in float64 on the reference march (the ground truth the Dr.Jit adjoint is checked against).
 
-Along a ray the march sums, per segment k of length Δs_k at a sample of absorption κ_k and
-temperature T_k (trilinear in the grids),
+Along a ray the march adds, per segment k of length Δs_k at a sample of absorption κ_k,
+temperature T_k and species fractions f_k (trilinear in the grids),
 
-    L = Σ_k Tr_k α_k S(T_k),   α_k = 1 − e^{−κ_k Δs_k},   Tr_k = Π_{j<k} e^{−κ_j Δs_j},
+    L = Σ_k Tr_k w(κ_k) η_k,   η = κ·S(T) + Σ_s f_s Φ_s(T),   w(κ) = (1 − e^{−κΔs})/κ,
 
-so for a loss with upstream gradient g = ∂loss/∂L (one XYZ vector per ray)
+Tr_k = Π_{j<k} e^{−κ_j Δs_j} (without lines, w·η = (1 − e^{−κΔs}) S). So for a loss with upstream
+gradient g = ∂loss/∂L (one XYZ vector per ray)
 
-    ∂loss/∂T_k = Tr_k α_k g·S′(T_k),
-    ∂loss/∂κ_k = Δs_k (Tr_k e^{−κ_kΔs_k} g·S(T_k) − g·R_k),   R_k = Σ_{j>k} Tr_j α_j S(T_j),
+    ∂loss/∂f_s = Tr w g·Φ_s,   ∂loss/∂T = Tr w g·∂η/∂T,
+    ∂loss/∂κ = Tr (w′ g·η + w g·S) − Δs g·R_k,
 
 R_k being the light from behind segment k that it attenuates. The forward march records only
 where each ray's segments lie and their transmittance on arrival; the backward pass replays
-them from the last to the first, recomputing κ, T and S (the replay of radiative
+them from the last to the first, recomputing κ, T, f, S and Φ (the replay of radiative
 backpropagation, Nimier-David et al. 2020, ACM TOG 39:4), and scatters each segment's
-gradients to its eight voxels with the trilinear weights. S′ is a central difference of the
-exact Planck × CMF source (h = 10 mK; float64). Grey blackbody emission only: species lines, an
-emission scale and spectral bins are refused in one line.
+gradients to its eight voxels with the trilinear weights. ∂η/∂T is a central difference of the
+exact Planck × CMF and line terms (h = 10 mK; float64). Grey band; an emission scale is refused
+in one line.
 """
 
 from __future__ import annotations
@@ -47,6 +47,8 @@ class Gradients:
     ray: NDArray[np.int64]
     temperature_K: NDArray[np.float64]
     absorption_per_m: NDArray[np.float64]
+    #: ∂loss/∂(fraction) per voxel of each species grid
+    species: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
 
 class _Taping(ea._Reference):
@@ -78,9 +80,8 @@ class _Taped(ea.EmissionAbsorption):
 
 def _check(volume, settings) -> None:
     """One line for what the adjoint does not cover yet."""
-    if volume.species or volume.emission_scale is not None:
-        raise ValueError("gradients cover blackbody emission–absorption: no species lines or "
-                         "emission scale yet")  # fmt: skip
+    if volume.emission_scale is not None:
+        raise ValueError("gradients cover emission–absorption without an emission scale")
     if settings.supersample != 1:
         raise ValueError(
             f"gradients need one ray per pixel; got supersample {settings.supersample}"
@@ -105,8 +106,8 @@ def gradients(volume, camera, settings, weights: NDArray) -> Gradients:
     program, xyz, ray = forward(volume, camera, settings)
     g = ray_ordered(weights)[ray]  # ∂loss/∂L per ray
     loss = float(np.sum(g * xyz))
-    grad_t, grad_k = _backward(program, g)
-    return Gradients(loss, xyz, ray, grad_t, grad_k)
+    grad_t, grad_k, grad_f = _backward(program, g)
+    return Gradients(loss, xyz, ray, grad_t, grad_k, grad_f)
 
 
 def ray_ordered(image: NDArray) -> NDArray[np.float64]:
@@ -117,27 +118,72 @@ def ray_ordered(image: NDArray) -> NDArray[np.float64]:
     )
 
 
-def _backward(program: _Taping, g: NDArray) -> tuple[NDArray, NDArray]:
-    """Replay the tape from its last segment to its first, accumulating ∂loss/∂T and ∂loss/∂κ
-    per sample and scattering them to the voxels."""
+def _terms(program: _Taping, temp: NDArray, sampled) -> tuple[NDArray, list[NDArray]]:
+    """(S: the source models' XYZ per unit κ, [Φ_s: each species' XYZ per metre per unit
+    fraction]) at the samples, zero below the table's T_min as the forward's are."""
+    inputs = program.inputs
+    source, lines = program.emission_xyz(temp, sampled), []
+    hot = temp >= inputs.lut.t_min_K
+    for model, values in zip(inputs.models, sampled, strict=True):
+        if model.kind != "coefficient":
+            continue
+        for s in range(len(values)):
+            unit = [np.full(temp.shape, 1.0 if j == s else 0.0) for j in range(len(values))]
+            phi = model.reference_add(np.zeros(temp.shape + (3,)), temp, unit, inputs)
+            lines.append(np.where(hot[:, None], phi, 0.0))
+    return source, lines
+
+
+def _eta(kappa, source, lines, fractions) -> NDArray:
+    """η = κ·S + Σ f_s Φ_s, XYZ per metre."""
+    eta = kappa[:, None] * source
+    for phi, f in zip(lines, fractions, strict=True):
+        eta = eta + f[:, None] * phi
+    return eta
+
+
+def _weights(kappa: NDArray, ds_m: NDArray) -> tuple[NDArray, NDArray]:
+    """w = (1 − e^{−κΔs})/κ (the segment's exact weight of η) and dw/dκ; their series where
+    κΔs < 1e-4."""
+    x = kappa * ds_m
+    small = x < 1e-4
+    safe = np.where(small, 1.0, kappa)
+    w = np.where(small, ds_m * (1 - x / 2 + x * x / 6), -np.expm1(-x) / safe)
+    dw = np.where(small, ds_m * ds_m * (-0.5 + x / 3 - x * x / 8),
+                  (ds_m * np.exp(-x) * safe + np.expm1(-x)) / safe**2)  # fmt: skip
+    return w, dw
+
+
+def _backward(program: _Taping, g: NDArray):
+    """Replay the tape from its last segment to its first, accumulating ∂loss/∂T, ∂loss/∂κ and
+    ∂loss/∂f (each species) per sample and scattering them to the voxels. Per segment the
+    forward adds Tr·w(κ)·η(κ, T, f) (``_weights``, ``_eta``)."""
     vol = program.inputs.volume
-    behind = np.zeros_like(g)  # g·R per ray is g·behind[r]
+    behind = np.zeros_like(g)  # the light from behind, per ray: Σ over later segments
     grad_t, grad_k = np.zeros(vol.shape), np.zeros(vol.shape)
+    grad_f = {name: np.zeros(vol.shape) for name in vol.species}
+    dot = _dot
     for r, p, ds_m, tr in reversed(program.tape):
         kappa, temp = trilinear(vol.absorption_per_m, p), trilinear(vol.temperature_K, p)
         sampled = ea._sampled(program.inputs, p)
-        source = program.emission_xyz(temp, sampled)
-        slope = (program.emission_xyz(temp + DT_K, sampled)
-                 - program.emission_xyz(temp - DT_K, sampled)) / (2 * DT_K)  # fmt: skip
-        through = np.exp(-kappa * ds_m)
+        fractions = [trilinear(vol.species[name], p) for name in vol.species]
+        source, lines = _terms(program, temp, sampled)
+        up, down = (_terms(program, temp + d, sampled) for d in (DT_K, -DT_K))
+        eta = _eta(kappa, source, lines, fractions)
+        slope = (_eta(kappa, *up, fractions) - _eta(kappa, *down, fractions)) / (2 * DT_K)
+        w, dw = _weights(kappa, ds_m)
         gr = g[r]
-        d_temp = tr * (1.0 - through) * np.einsum("ij,ij->i", gr, slope)
-        d_kappa = ds_m * (tr * through * np.einsum("ij,ij->i", gr, source)
-                          - np.einsum("ij,ij->i", gr, behind[r]))  # fmt: skip
-        behind[r] += (tr * (1.0 - through))[:, None] * source
-        _scatter(grad_t, p, d_temp)
-        _scatter(grad_k, p, d_kappa)
-    return grad_t, grad_k
+        _scatter(grad_t, p, tr * w * dot(gr, slope))
+        _scatter(grad_k, p, tr * (dw * dot(gr, eta) + w * dot(gr, source))
+                 - ds_m * dot(gr, behind[r]))  # fmt: skip
+        for name, phi in zip(vol.species, lines, strict=True):
+            _scatter(grad_f[name], p, tr * w * dot(gr, phi))
+        behind[r] += (tr * w)[:, None] * eta
+    return grad_t, grad_k, grad_f
+
+
+def _dot(a: NDArray, b: NDArray) -> NDArray:
+    return np.einsum("ij,ij->i", a, b)
 
 
 def _scatter(grid: NDArray, p: NDArray, values: NDArray) -> None:
