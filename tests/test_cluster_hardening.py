@@ -402,3 +402,21 @@ def test_animate_interrupted_just_after_a_frame_is_committed_resumes_without_ove
     monkeypatch.setattr(sequence, "write_png", real)
     code, output = _animate(pattern, "-o", out, *ARGS)
     assert code == 0 and "2 rendered, 2 reused" in " ".join(output.split()), output
+
+
+def test_distributed_s_ctrl_c_race_in_sync_is_not_a_traceback():
+    """distributed's ``sync`` can be interrupted before it has made its future; its cancel
+    callback then raises a NameError that tornado logs with a traceback (seen once in CI on
+    ``animate --workers`` Ctrl-C). ``connect`` filters exactly that record out of tornado's
+    log; other callback errors still show."""
+    import logging
+
+    from incandescent.cluster import _drop_sync_cancel_race
+
+    def record(callback: str) -> logging.LogRecord:
+        return logging.LogRecord("tornado.application", logging.ERROR, __file__, 1,
+                                 "Exception in callback %r", (callback,), None)  # fmt: skip
+
+    race = "functools.partial(<function sync.<locals>.cancel at 0x7f>)"
+    assert not _drop_sync_cancel_race(record(race))
+    assert _drop_sync_cancel_race(record("functools.partial(<function other at 0x7f>)"))

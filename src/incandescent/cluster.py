@@ -324,6 +324,14 @@ def _drop_compute_failed(record: logging.LogRecord) -> bool:
     return not str(record.msg).startswith("Compute Failed")
 
 
+def _drop_sync_cancel_race(record: logging.LogRecord) -> bool:
+    """False for tornado's "Exception in callback" of ``distributed.utils.sync``'s ``cancel``:
+    when Ctrl-C lands before ``sync`` has made its future, that callback raises a NameError
+    (distributed's own race) and tornado logs its traceback; the client already answers the
+    Ctrl-C in one line, so the traceback is dropped."""
+    return "sync.<locals>.cancel" not in record.getMessage()
+
+
 @contextlib.contextmanager
 def connect(workers: int | None, scheduler: str | None) -> Iterator[tuple[Any, int | None]]:
     """(Dask client, Dr.Jit threads per task) for ``workers`` local processes or an existing
@@ -335,6 +343,9 @@ def connect(workers: int | None, scheduler: str | None) -> Iterator[tuple[Any, i
         return
     distributed = _client_module()
     logging.getLogger("distributed").setLevel(logging.ERROR)  # its lifecycle chatter on stderr
+    tornado_log = logging.getLogger("tornado.application")
+    if _drop_sync_cancel_race not in tornado_log.filters:
+        tornado_log.addFilter(_drop_sync_cancel_race)
     if target.address is not None:
         with _remote_client(distributed, target) as client:
             yield client, None
