@@ -59,6 +59,7 @@ from incandescent.renderer.lights import (
     SpotLight,
 )
 from incandescent.renderer.settings import RenderSettings
+from incandescent.sensor import Filter, Sensor
 from incandescent.volume.grid import Remap, Volume, check_soot_alpha
 from incandescent.volume.presets import ROLES, preset_parameters
 
@@ -509,36 +510,36 @@ class OutputSection(_Section):
 
 
 class FilterSection(_Section):
-    """One filter in front of a ``[sensor]`` (``sensor.Filter``)."""
+    """One filter in front of a ``[sensor]`` (``sensor.Filter``; its defaults)."""
 
     kind: Literal["nd", "bandpass", "ir_cut", "csv"]
-    density: float = 0.0
-    centre_nm: float = 550.0
-    width_nm: float = 10.0
-    peak: float = 1.0
-    edge_nm: float = 680.0
-    path: str | None = None
+    density: float = Filter.density
+    centre_nm: float = Filter.centre_nm
+    width_nm: float = Filter.width_nm
+    peak: float = Filter.peak
+    edge_nm: float = Filter.edge_nm
+    path: str | None = Filter.path
 
 
 class SensorSection(_Section):
-    """A camera's sensor (``sensor.Sensor``; a render with one writes a raw image), the noise
-    draw (``noise``, ``seed``) and the spectral bins its render takes."""
+    """A camera's sensor (``sensor.Sensor``, whose defaults these are; a render with one writes
+    a raw image), the noise draw (``noise``, ``seed``) and the spectral bins its render takes."""
 
-    sensitivity: str = "nikon_d5100"
-    f_number: float = 8.0
-    lens_transmittance: float = 0.9
+    sensitivity: str = Sensor.sensitivity
+    f_number: float = Sensor.f_number
+    lens_transmittance: float = Sensor.lens_transmittance
     filters: list[FilterSection] = Field(default_factory=list)
-    exposure_s: float = 1e-4
-    pixel_pitch_um: float = 4.78
-    peak_qe: float = 0.4
-    gain_e_per_dn: float = 2.0
-    full_well_e: float = 30000.0
-    read_noise_e: float = 3.0
-    dark_current_e_s: float = 1.0
-    black_level_dn: int = 600
-    bits: int = 14
-    pattern: str = "RGGB"
-    cos4: bool = False
+    exposure_s: float = Sensor.exposure_s
+    pixel_pitch_um: float = Sensor.pixel_pitch_um
+    peak_qe: float = Sensor.peak_qe
+    gain_e_per_dn: float = Sensor.gain_e_per_dn
+    full_well_e: float = Sensor.full_well_e
+    read_noise_e: float = Sensor.read_noise_e
+    dark_current_e_s: float = Sensor.dark_current_e_s
+    black_level_dn: int = Sensor.black_level_dn
+    bits: int = Sensor.bits
+    pattern: str = Sensor.pattern
+    cos4: bool = Sensor.cos4
     noise: bool = True
     seed: int = 0
     spectral_bins: int = Field(default=32, ge=1, le=471)
@@ -556,8 +557,6 @@ class SensorSection(_Section):
 
     def sensor(self):
         """The ``Sensor`` this section describes."""
-        from incandescent.sensor import Filter, Sensor
-
         skip = {"filters", "noise", "seed", "spectral_bins", "width_px", "height_px"}
         fields = self.model_dump(exclude=skip)
         filters = tuple(Filter(**f.model_dump()) for f in self.filters)

@@ -141,7 +141,8 @@ def gradients_on(
     if volume.species or volume.emission_scale is not None:
         raise ValueError("gradients cover blackbody emission–absorption: no species lines or "
                          "emission scale yet")  # fmt: skip
-    image = image or render(volume, camera, settings, backend)
+    if image is None:
+        image = render(volume, camera, settings, backend)
     assert image.xyz is not None, "emission–absorption renders radiance"
     totals, upstream = ray_ordered(image.xyz), ray_ordered(weights)  # indexed by camera ray
     adjoint = AdjointEmissionAbsorption(upstream=upstream, totals=totals)

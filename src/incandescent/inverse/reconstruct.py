@@ -92,7 +92,7 @@ def reconstruct(
     progress: Callable | None = None,
 ):
     """T on ``start``'s grid (its absorption and placement kept) that fits ``views``; returns
-    (the volume, the loss per iteration)."""  # fmt: skip
+    (the volume, the loss per iteration)."""
     temp = np.asarray(start.temperature_K, dtype=np.float64)
     m, v, losses = np.zeros_like(temp), np.zeros_like(temp), []
     volume = start

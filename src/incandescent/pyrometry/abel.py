@@ -122,7 +122,7 @@ def self_absorption_corrected(
 ) -> RadialField:
     """:func:`radial_temperature` with the flame's self-absorption corrected (see the module):
     κ₅₅₀(r) = e_G(r) / (t·c·ė_G(T(r))) per unit κ₅₅₀, each channel attenuated by
-    κ₅₅₀ (550 nm/λ_c)^α at its :func:`effective_wavelengths_nm`."""  # fmt: skip
+    κ₅₅₀ (550 nm/λ_c)^α at its :func:`effective_wavelengths_nm`."""
     from incandescent.pyrometry.table import channel_rates, emissivity
 
     measured = cells.electrons
