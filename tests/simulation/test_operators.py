@@ -14,6 +14,8 @@ from incandescent.simulation.grid import cells, faces, positions
 from incandescent.simulation.operators import (
     advect,
     divergence,
+    eddy_diffuse,
+    strain_rate,
     vorticity,
     vorticity_confinement,
 )
@@ -120,3 +122,58 @@ def test_a_passive_scalar_in_a_closed_box_keeps_its_mass_within_the_schemes_drif
     assert np.abs(mac).max() < 0.015
     assert np.abs(semi).max() < 0.20
     assert np.abs(semi[-1]) > 10 * np.abs(mac[-1])
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_the_strain_rate_of_a_simple_shear_is_its_rate(backend):
+    """u = s·y: S_xy = S_yx = s/2, so |S| = √(2 S_ij S_ij) = s; with s = 1/4 exact everywhere
+    (the central differences of a linear field are exact, one-sided ones at the edges too)."""
+    ops = ops_for(backend)
+    u = _velocity(ops, SHAPE, lambda a, x, y, z: 0.25 * y if a == 0 else 0.0)
+    np.testing.assert_allclose(ops.numpy(strain_rate(ops, u).values), 0.25, rtol=1e-6)
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_a_rigid_rotation_has_no_strain(backend):
+    """u = ω × r (rotation about z): the velocity gradient is antisymmetric, S = 0."""
+    ops = ops_for(backend)
+
+    def spin(a, x, y, z):
+        return -(y - 8.0) * 0.25 if a == 0 else (x - 8.0) * 0.25 if a == 1 else 0.0
+
+    u = _velocity(ops, SHAPE, spin)
+    np.testing.assert_allclose(ops.numpy(strain_rate(ops, u).values), 0.0, atol=1e-6)
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_eddy_mixing_conserves_heat_and_makes_no_new_extremes(backend):
+    """Explicit ∇·(D∇q) with no flux through the sides: Σq is unchanged (to rounding), every
+    value stays within [min q, max q] even at D·Δt far past the stability bound (capped), and
+    a uniform field is untouched."""
+    ops = ops_for(backend)
+    rng = np.random.default_rng(5)
+    layout = cells(SHAPE)
+    q = Field(ops.array(300.0 + 1700.0 * rng.random(layout.size)), layout)
+    d = Field(ops.array(40.0 * rng.random(layout.size)), layout)
+    mixed = ops.numpy(eddy_diffuse(ops, q, d, 0.05).values)
+    before = ops.numpy(q.values)
+    assert mixed.sum() == pytest.approx(before.sum(), rel=1e-6)
+    assert mixed.min() >= before.min() - 1e-3 and mixed.max() <= before.max() + 1e-3
+    assert np.abs(mixed - before).max() > 100.0  # it mixed
+    flat = Field(ops.full(layout.size, 700.0), layout)
+    np.testing.assert_allclose(ops.numpy(eddy_diffuse(ops, flat, d, 0.05).values), 700.0)
+
+
+def test_eddy_mixing_spreads_a_spike_as_the_heat_equation():
+    """A unit spike, constant D: after one step the centre keeps 1 − 6DΔt and each of its six
+    neighbours gains DΔt (the FTCS stencil of ∂q/∂t = D∇²q)."""
+    ops = ops_for("reference")
+    layout = cells(SHAPE)
+    spike = np.zeros(SHAPE)
+    spike[8, 8, 4] = 1.0
+    q = Field(ops.array(spike.ravel()), layout)
+    d = Field(ops.full(layout.size, 1.0), layout)
+    out = ops.numpy(eddy_diffuse(ops, q, d, 0.1).values).reshape(SHAPE)
+    assert out[8, 8, 4] == pytest.approx(0.4)
+    for di, dj, dk in [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]:
+        assert out[8 + di, 8 + dj, 4 + dk] == pytest.approx(0.1)

@@ -104,11 +104,11 @@ def test_the_step_cap_is_a_reported_safety_limit(tmp_path):
 
 def _speed_bound_m_s(settings) -> float:
     """The fastest gas the presets' physics allows (m/s): a parcel at t_max_K rising the
-    domain's height H from rest under the ideal gas's buoyancy, √(2 g ΔT H / T_air) (energy:
+    domain's height H from rest under the ideal gas's buoyancy, √(2 g (1 − T_air/T_max) H) (energy:
     no parcel gains more than its buoyant potential energy), plus the fastest jet and the
     front's expansion speed (ρ_f/ρ_h − 1)·S, which push gas without buoyancy."""
     s, height = settings, settings.domain_m[1]
-    rise = math.sqrt(2.0 * s.buoyancy_m_s2_K() * (s.t_max_K - s.t_air_K) * height)
+    rise = math.sqrt(2.0 * s.buoyancy_m_s2(s.t_max_K) * height)
     jet = max((source.jet_m_s for source in s.sources), default=0.0)
     return rise + jet + (s.density_ratio - 1.0) * s.flame_speed_m_s
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import math
 import signal
 import time
 import warnings
@@ -413,11 +414,9 @@ def simulate(o: Given) -> None:
             {} if o.settings_file is None else fire_settings.read_settings_file(o.settings_file)
         )
         named = None if o.settings_file is None else str(o.settings_file)
-        settings = fire_settings.from_changes(o.preset_name, changes, named)
+        settings = _fire_settings(o, changes, named)
         if o.seed is not None:
-            settings = fire_settings.from_changes(
-                o.preset_name, changes | {"seed": o.seed}, "--seed"
-            )
+            settings = _fire_settings(o, changes | {"seed": o.seed}, "--seed")
         view = o.render_to and fire_video.FireRender(o.render_to, o.width, o.height, o.exposure,
                                                      o.workers, o.scheduler)  # fmt: skip
         with _simulation_progress(o.frames) as on_frame:
@@ -426,6 +425,25 @@ def simulate(o: Given) -> None:
                                    o.overwrite, on_frame, limits)  # fmt: skip
         if o.render_to is not None:
             say(f"  rendered {o.render_to}")
+
+
+def _fire_settings(o: Given, changes: dict, source: str | None):
+    """The preset's settings with ``changes`` (from ``source``); the pool preset's from --pool."""
+    from incandescent.simulation import pool, settings
+
+    if o.preset_name != "pool":
+        if o.pool is not None:
+            raise ValueError(f"--pool {o.pool} sets the pool preset; got preset {o.preset_name!r}")
+        return settings.from_changes(o.preset_name, changes, source)
+    parts = (o.pool or "0.5:100:methane").split(":")
+    try:
+        diameter, heat = float(parts[0]), float(parts[1])
+    except (ValueError, IndexError):
+        diameter = heat = math.nan
+    if len(parts) > 3 or not (diameter > 0 and heat > 0):
+        raise ValueError(f"--pool must be D:Q[:FUEL], D in m and Q in kW > 0; got {o.pool!r}")
+    fuel = parts[2] if len(parts) == 3 else "methane"
+    return pool.pool_fire(diameter, heat, fuel, changes, source)
 
 
 @contextlib.contextmanager

@@ -543,8 +543,10 @@ ANIMATE = (
     BLUR, CLUSTER, LIMITS,
 )
 SIMULATE = (
-    Flag("preset_name", str, "candle | torch | campfire | explosion.", default=...,
+    Flag("preset_name", str, "candle | torch | campfire | explosion | pool.", default=...,
          argument=True, extra={"metavar": "PRESET"}),
+    Flag("pool", str, "The pool preset's diameter (m), heat release rate (kW) and fuel "
+         "(methane | propane | heptane) [0.5:100:methane].", extra={"metavar": "D:Q[:FUEL]"}),
     Flag("output", Path, "Folder for the frames (fire_####).", default=...,
          decls=("--output", "-o")),
     Flag("resolution", int, "Cells along the domain's longest side.", default=64),

@@ -193,3 +193,41 @@ def outside(p: Sequence[Array], shape: Sequence[int], open_sides: Sequence[bool]
 def _where(ops: Ops, mask: Array | None, value: float | None, otherwise: Array) -> Array:
     """``value`` where ``mask`` (None: nowhere), else ``otherwise``."""
     return otherwise if mask is None else ops.select(mask, value, otherwise)
+
+
+def strain_rate(ops: Ops, velocity: StaggeredField) -> Field:
+    """|S| = √(2 S_ij S_ij) at the cell centres (1/s for u in cells/s), S_ij = ½(∂u_i/∂x_j +
+    ∂u_j/∂x_i) from the face means and central differences: the resolved strain that sets
+    Smagorinsky's eddy viscosity (``eddy_diffuse``)."""
+    centre = [face_mean(ops, component, a) for a, component in enumerate(velocity)]
+    d = [[central(ops, centre[c], a).values for a in range(3)] for c in range(3)]  # ∂u_c/∂a
+    total = None
+    for c in range(3):
+        for a in range(3):
+            s = 0.5 * (d[c][a] + d[a][c])
+            total = 2.0 * s * s if total is None else total + 2.0 * s * s
+    return Field(ops.sqrt(total), velocity.cells)
+
+
+#: Largest diffusion number D·Δt per cell² of one explicit step (3-D FTCS is stable to 1/6).
+STABLE_DIFFUSION = 1.0 / 6.0
+
+
+def eddy_diffuse(ops: Ops, q: Field, diffusivity: Field, dt: Array | float) -> Field:
+    """One explicit step of ∂q/∂t = ∇·(D ∇q) with a per-cell diffusivity D (cells²/s), the
+    face's D the mean of its two cells, no flux through the domain's sides (the ambient's
+    exchange is by advection). D·Δt is capped at ``STABLE_DIFFUSION`` per cell (FTCS's stability
+    bound; where the strain is so high that it binds, one step mixes less than D asks): each
+    value becomes a convex combination of itself and its neighbours, so mixing never makes new
+    extremes."""
+    i, j, k = indices(ops, q.layout)
+    rate = ops.minimum(diffusivity.values * dt, STABLE_DIFFUSION)
+    total = None
+    for axis in range(3):
+        for step in (-1, 1):
+            index, inside = neighbour(ops, q.layout, i, j, k, axis, step)
+            other = ops.minimum(ops.gather(rate, index), STABLE_DIFFUSION)
+            flux = 0.5 * (rate + other) * (ops.gather(q.values, index) - q.values)
+            flux = ops.select(inside, flux, 0.0)
+            total = flux if total is None else total + flux
+    return q.like(q.values + total)

@@ -68,7 +68,7 @@ def air_density_kg_m3(t_air_K: float) -> float:
 STANDARD_GRAVITY_M_S2 = 9.80665
 #: Keys of settings before issue 28 that became physics: key → what replaced it.
 REMOVED_KEYS = {
-    "buoyancy_m_s2_K": "buoyancy is now the ideal gas's, g·(T − T_air)/T_air (set gravity_m_s2)",
+    "buoyancy_m_s2_K": "buoyancy is now the ideal gas's, g·(1 − T_air/T) (set gravity_m_s2)",
     "soot_weight_m_s2": "soot's weight is now its mass, soot κ / soot_mass_extinction_m2_kg",
 }
 
@@ -107,7 +107,7 @@ class FireSettings(_Model):
     gravity_m_s2: float = Field(
         default=STANDARD_GRAVITY_M_S2,
         ge=0,
-        description="g: buoyancy is g·(T − T_air)/T_air − g·(soot mass)/ρ_air (ideal gas)",
+        description="g: buoyancy is g·(1 − T_air/T) − g·(soot mass)/ρ_air (ideal gas)",
     )
     soot_mass_extinction_m2_kg: float = Field(
         default=8700.0,
@@ -115,12 +115,31 @@ class FireSettings(_Model):
         description="σ_m: soot's extinction per kg (m²/kg); its mass is soot κ / σ_m",
     )
     vorticity: float = Field(default=3.0, ge=0, description="ε of vorticity confinement")
+    smagorinsky: float = Field(
+        default=0.2,
+        ge=0,
+        le=0.5,
+        description="C_s: sub-grid mixing of heat and soot, D = (C_s h)²|S|/Pr_t (0: none)",
+    )
+    turbulent_prandtl: float = Field(
+        default=0.5, gt=0, description="Pr_t (= Sc_t): eddy viscosity over eddy diffusivity"
+    )
     soot_rate_per_s: float = Field(default=2.0, ge=0, description="soot made per s in hot products")
     soot_min_K: float = Field(default=1200.0, gt=0)
     soot_decay_per_s: float = Field(default=0.4, ge=0)
     soot_kappa_per_m: float = Field(default=8.0, ge=0, description="κ (1/m) of unit soot")
-    ch_fraction: float = Field(default=0.05, ge=0, le=1, description="CH* in the reaction zone")
-    c2_fraction: float = Field(default=0.02, ge=0, le=1, description="C₂ in the reaction zone")
+    ch_fraction: float = Field(
+        default=0.002,
+        ge=0,
+        le=1,
+        description="CH* in the reaction zone (of the line table's luminance-scaled unit)",
+    )
+    c2_fraction: float = Field(
+        default=0.06,
+        ge=0,
+        le=1,
+        description="C₂* in the reaction zone: 30× CH*'s, as much radiant power (see DESIGN §7)",
+    )
     pressure_tolerance: float = Field(default=1e-4, gt=0, lt=1)
     walls: bool = Field(
         default=False, description="solid side walls (a chimney); default open sides"
@@ -130,10 +149,12 @@ class FireSettings(_Model):
     sources: tuple[Source, ...] = (Source(),)
     obstacles: tuple[Obstacle, ...] = ()
 
-    def buoyancy_m_s2_K(self) -> float:
-        """β·g: the Boussinesq upward acceleration per kelvin of excess temperature, g/T_air
-        (an ideal gas's expansion coefficient is β = 1/T; 0.0327 m/s²/K at 300 K)."""
-        return self.gravity_m_s2 / self.t_air_K
+    def buoyancy_m_s2(self, t_K: float) -> float:
+        """The upward acceleration (m/s²) of gas at ``t_K`` in air at ``t_air_K``: the
+        Boussinesq approximation (the ambient's density ρ_air as inertia) with the ideal gas's
+        density unlinearised, g(ρ_air − ρ)/ρ_air = g(1 − T_air/T) — g(T − T_air)/T_air (β = 1/T)
+        for small excess, at most g (0.85 g at 2000 K, where the linear form gave 5.7 g)."""
+        return self.gravity_m_s2 * (1.0 - self.t_air_K / t_K)
 
     @model_validator(mode="after")
     def _check(self) -> FireSettings:
@@ -173,10 +194,10 @@ def _check_below_sound(settings: FireSettings) -> None:
     c = settings.sound_speed_m_s()
     where = f"faster than sound ({c:.0f} m/s at t_air_K); the solver models slow "
     where += "(incompressible) flames"
-    height, heat = settings.domain_m[1], settings.t_max_K - settings.t_air_K
-    rise = math.sqrt(2.0 * settings.buoyancy_m_s2_K() * heat * height)
+    height = settings.domain_m[1]
+    rise = math.sqrt(2.0 * settings.buoyancy_m_s2(settings.t_max_K) * height)
     if rise > c:
-        most = c * c * settings.t_air_K / (2.0 * heat * height)
+        most = c * c / (2.0 * (1.0 - settings.t_air_K / settings.t_max_K) * height)
         raise ValueError(
             f"gravity_m_s2: {settings.gravity_m_s2:g} lifts gas at t_max_K to about "
             f"{rise:.3g} m/s over the domain's {height:g} m height, {where}: use at most {most:.3g}"

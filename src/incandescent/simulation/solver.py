@@ -5,13 +5,14 @@ One step (``FireSolver.step``), in the order of Fedkiw et al. 2001 §3 and Nguye
 1. advect velocity, temperature T, soot and the level set φ semi-Lagrangian (backtrace with the
    trilinear velocity), optionally MacCormack-corrected with Selle et al. 2008's limiter; air
    entering through an open side brings T_air, no soot and no velocity along that side;
+   then heat and soot mixed below the grid's scale (Smagorinsky's eddy diffusivity, ``_mix``);
 2. sources: φ ← min(φ, signed distance of each active source) (fuel, φ < 0 inside the blue core);
    nozzles set the velocity of their faces to the jet (with seeded turbulence);
 3. the reaction front moves into the fuel at the flame speed S: φ is advected with the fuel's
    velocity (sampled 2.5 cells into the fuel near the front), then φ ← φ + S·Δt (Nguyen eqs. 2–3
    with |∇φ| = 1, φ a distance in cells; no re-initialisation);
-4. forces: buoyancy a_y = g(T − T_air)/T_air − g·c_soot/ρ_air (Boussinesq, ideal gas: β = 1/T_air;
-   Fedkiw eq. 8 with physical constants) and vorticity confinement
+4. forces: buoyancy a_y = g(1 − T_air/T) − g·c_soot/ρ_air (Boussinesq with the ideal gas's
+   density; Fedkiw eq. 8 with physical constants) and vorticity confinement
    f = ε h (N × ω), N = ∇|ω|/|∇|ω|| (Fedkiw eq. 11); inflow through an open side slowed by its
    Bernoulli pressure drop (``_entrainment``);
 5. projection: ∇·u = D with D = (ρ_f/ρ_h − 1)·S·δ_ε(φ), the volume the burning fuel adds at the
@@ -40,7 +41,9 @@ from incandescent.simulation.operators import (
     cell_value_at_faces,
     central,
     divergence,
+    eddy_diffuse,
     gradient,
+    strain_rate,
     vorticity_confinement,
 )
 from incandescent.simulation.settings import FireSettings, air_density_kg_m3
@@ -201,12 +204,15 @@ class FireSolver:
 
     def _source_distance(self, source) -> object:
         """Signed distance (cells) to a source's surface: < 0 inside. A source narrower than a
-        cell is widened to one (a coarse grid still has its fire)."""
+        cell is widened to one (a coarse grid still has its fire). A sphere's surface is
+        rippled by ``noise`` × its radius (``_ripples``, seeded): a perfect sphere burns into
+        perfectly symmetric lobes, as no real fireball does."""
         x, y, z = self._world()
         c = self._at(source.centre)
         radius = max(source.radius_m, self.h)
         if source.kind == "sphere":
             d = np.sqrt((x - c[0]) ** 2 + (y - c[1]) ** 2 + (z - c[2]) ** 2) - radius
+            d = d - self.settings.noise * radius * _ripples(x, y, z, radius, self.settings.seed)
         else:  # a disc (nozzle) one cell thick, facing up
             r = np.sqrt((x - c[0]) ** 2 + (z - c[2]) ** 2) - radius
             d = np.maximum(r, np.abs(y - c[1]) - self.h)
@@ -259,6 +265,7 @@ class FireSolver:
         phi = self._advect(
             state.phi, self.centres, u, step, carried_by=fuel_side, ambient=PHI_LIMIT
         )
+        temperature, soot = self._mix(u, temperature, soot, step)
         ops.evaluate(*velocity, phi, temperature, soot)
         phi, velocity = self._sources(phi, velocity, state)
         speed = s.flame_speed_m_s / self.h
@@ -299,6 +306,24 @@ class FireSolver:
             ambient=0.0,
             ambient_sides=tangential,
         ).values
+
+    def _mix(self, u: StaggeredField, temperature, soot, step):
+        """Sub-grid turbulent mixing of heat and soot: ∂q/∂t = ∇·(D_t ∇q) with Smagorinsky's
+        eddy viscosity ν_t = (C_s h)²|S| (Smagorinsky 1963, Mon. Weather Rev. 91:99) and
+        D_t = ν_t/Pr_t — the closure of FDS's LES (McGrattan et al., FDS Technical Reference
+        Guide, C_s = 0.2, Pr_t = Sc_t = 0.5). In cell units h = 1. Without it the hot products
+        are only carried, never diluted by the air the plume entrains below the grid's scale,
+        and stay at flame temperature to the top of the domain."""
+        s = self.settings
+        if s.smagorinsky <= 0.0:
+            return temperature, soot
+        strain = strain_rate(self.ops, u)
+        diffusivity = strain.like(strain.values * (s.smagorinsky**2 / s.turbulent_prandtl))
+        self.ops.evaluate(diffusivity.values)
+        return (
+            eddy_diffuse(self.ops, self.cell_field(q), diffusivity, step).values
+            for q in (temperature, soot)
+        )
 
     def _entrainment(self, velocity, step):
         """Air drawn in through an open side starts from rest: between the far field (p = 0,
@@ -365,17 +390,20 @@ class FireSolver:
         return near * (1.0 + cosine) / (2.0 * eps)
 
     def _buoyancy(self, temperature, soot):
-        """Upward acceleration (m/s²) of the Boussinesq approximation with an ideal gas's
-        expansion coefficient β = 1/T_air: a = g (T − T_air)/T_air − g c/ρ_air, where
-        c = soot·κ₁/σ_m is soot's mass per volume (kg/m³; κ₁ = ``soot_kappa_per_m`` of unit soot,
-        σ_m its mass extinction coefficient, 8.7 m²/g: Mulholland & Croarkin 2000, Fire Mater.
-        24:227) and ρ_air the air's density at T_air (ideal gas, one atmosphere). The thermal
-        term is also the exact acceleration of a parcel of hot gas by the ambient's hydrostatic
-        pressure, g(ρ_air − ρ)/ρ with ρ ∝ 1/T."""
+        """Upward acceleration (m/s²): the Boussinesq approximation with the ambient air's
+        density ρ_air as the inertia of every parcel and the ideal gas's density unlinearised,
+        a = g(ρ_air − ρ)/ρ_air − g c/ρ_air = g(1 − T_air/T) − g c/ρ_air, where c = soot·κ₁/σ_m is
+        soot's mass per volume (kg/m³; κ₁ = ``soot_kappa_per_m`` of unit soot, σ_m its mass
+        extinction coefficient, 8.7 m²/g: Mulholland & Croarkin 2000, Fire Mater. 24:227).
+
+        Why ρ_air: the solver gives every parcel one density, and a rising parcel of hot gas
+        must push aside cold air, whose inertia dominates; dividing by the parcel's own density
+        instead, g(T − T_air)/T_air, drove 2000 K gas at 5.7 g and the campfire's plume at
+        13–15 m/s (a real one moves at a few m/s: McCaffrey 1979's 1.9 Q^(1/5) m/s)."""
         s = self.settings
         soot_kg_m3 = soot * (s.soot_kappa_per_m / s.soot_mass_extinction_m2_kg)
         heavy = s.gravity_m_s2 / air_density_kg_m3(s.t_air_K)
-        return s.buoyancy_m_s2_K() * (temperature - s.t_air_K) - heavy * soot_kg_m3
+        return s.gravity_m_s2 * (1.0 - s.t_air_K / temperature) - heavy * soot_kg_m3
 
     def _forces(self, velocity, temperature, soot, dt):
         s = self.settings
@@ -430,3 +458,25 @@ class FireSolver:
         soot = soot + ops.select(sooting, step * s.soot_rate_per_s, 0.0)
         soot = ops.maximum(soot * ops.scalar(math.exp(-s.soot_decay_per_s * dt)), 0.0)
         return temperature, soot
+
+
+#: Random plane waves summed for a sphere source's ripples, and their wavelengths in radii.
+RIPPLE_WAVES, RIPPLE_WAVELENGTHS = 8, (0.5, 1.5)
+
+
+def _ripples(x, y, z, radius_m: float, seed: int) -> np.ndarray:
+    """A smooth seeded field of unit RMS: ``RIPPLE_WAVES`` plane waves of random directions,
+    wavelengths 0.5–1.5 radii and phases (positions x, y, z in m)."""
+    rng = np.random.default_rng(seed)
+    total = np.zeros_like(x)
+    for _ in range(RIPPLE_WAVES):
+        direction = rng.normal(size=3)
+        k = (
+            direction
+            / np.linalg.norm(direction)
+            * 2
+            * np.pi
+            / (radius_m * rng.uniform(*RIPPLE_WAVELENGTHS))
+        )
+        total += np.sin(k[0] * x + k[1] * y + k[2] * z + rng.uniform(0, 2 * np.pi))
+    return total * np.sqrt(2.0 / RIPPLE_WAVES)

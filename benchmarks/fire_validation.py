@@ -1,0 +1,162 @@
+"""Simulated pool fires against fire science: puffing (Cetegen & Ahmed 1993), mean flame height
+(Heskestad 1983) and the plume's centreline temperature (McCaffrey 1979).
+
+For each pool (D, Q) of ``--pools`` at each ``--resolution``: ``pool_fire(D, Q)`` (methane) is
+run for ``--seconds`` of simulated time at 24 samples per second on the cpu backend; the first
+``--warmup`` seconds are dropped. Measured, over the rest:
+
+- the puffing frequency: the dominant frequency above 0.5 Hz of the luminous volume (gas above
+  1000 K, the diagnostics' flame), and of the luminous region's tip height;
+- the mean flame height: where a layer holds luminous gas half the time (50 % intermittency);
+- the centreline: the time-mean temperature of the 2×2 central columns; its log–log slope above
+  the flame, in McCaffrey's plume region (z/Q^(2/5) > 0.2 m/kW^(2/5)) below the top 15 % of the
+  domain (its open outflow), against McCaffrey's −5/3.
+
+Writes ``OUT.json`` (every figure, and the profiles) and ``OUT.md`` (the table); with ``--plot``
+also ``OUT.png`` (spectra and profiles). Usage:
+``python benchmarks/fire_validation.py OUT [--resolution 64] [--seconds 12] [--warmup 3]
+[--pools 0.2:10,0.2:20,0.5:50,0.5:150,1.0:200,1.0:600] [--plot]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from incandescent.simulation import FireSolver
+from incandescent.simulation.diagnostics import HOT_K
+from incandescent.simulation.pool import (
+    dominant_hz,
+    heskestad_height_m,
+    intermittency_height_m,
+    mccaffrey_excess_K,
+    pool_fire,
+    power_law_slope,
+    puffing_hz,
+)
+from incandescent.simulation.run import advance_frame
+
+RATE_HZ = 24.0
+
+
+def sample_run(diameter_m: float, heat_kW: float, resolution: int, seconds: float) -> dict:
+    """Per-sample series of one pool fire: luminous volume, tip height, layer presence and the
+    centreline temperature (NumPy arrays), with the solver's cell size and wall time."""
+    solver = FireSolver(pool_fire(diameter_m, heat_kW, changes={"fps": RATE_HZ}), resolution, "cpu")
+    state, h, (nx, _, nz) = solver.initial_state(), solver.h, solver.shape
+    volume, tip, present, centre = [], [], [], []
+    began = time.perf_counter()
+    for _ in range(round(seconds * RATE_HZ)):
+        state, _ = advance_frame(solver, state)
+        t = solver.ops.numpy(state.temperature.values).reshape(solver.shape)
+        hot = t > HOT_K
+        layers = hot.any(axis=(0, 2))
+        volume.append(hot.sum() * h**3)
+        tip.append((np.nonzero(layers)[0].max() + 1) * h if layers.any() else 0.0)
+        present.append(layers)
+        centre.append(t[nx // 2 - 1 : nx // 2 + 1, :, nz // 2 - 1 : nz // 2 + 1].mean(axis=(0, 2)))
+    return {
+        "h": h,
+        "shape": solver.shape,
+        "wall_s": time.perf_counter() - began,
+        "volume": np.array(volume),
+        "tip": np.array(tip),
+        "present": np.array(present),
+        "centre": np.array(centre),
+    }
+
+
+def measure(diameter_m: float, heat_kW: float, resolution: int, seconds: float, warmup: float):
+    """The figures of one pool fire against the correlations (see the module docstring)."""
+    run = sample_run(diameter_m, heat_kW, resolution, seconds)
+    keep = slice(round(warmup * RATE_HZ), None)
+    h, ny = run["h"], run["shape"][1]
+    z = (np.arange(ny) + 0.5) * h
+    excess = run["centre"][keep].mean(axis=0) - 300.0
+    plume = (z / heat_kW**0.4 > 0.2) & (z < 0.85 * ny * h) & (excess > 0)
+    return {
+        "D_m": diameter_m,
+        "Q_kW": heat_kW,
+        "resolution": resolution,
+        "shape": list(run["shape"]),
+        "cells_across_D": diameter_m / h,
+        "wall_s": run["wall_s"],
+        "puffing_expected_hz": puffing_hz(diameter_m),
+        "puffing_volume_hz": dominant_hz(run["volume"][keep], RATE_HZ),
+        "puffing_tip_hz": dominant_hz(run["tip"][keep], RATE_HZ),
+        "height_expected_m": heskestad_height_m(heat_kW, diameter_m),
+        "height_m": intermittency_height_m(run["present"][keep], h),
+        "plume_slope": power_law_slope(z[plume], excess[plume]) if plume.sum() >= 3 else None,
+        "plume_points": int(plume.sum()),
+        "z_m": z.tolist(),
+        "centreline_excess_K": excess.tolist(),
+        "mccaffrey_excess_K": mccaffrey_excess_K(z, heat_kW).tolist(),
+        "volume_m3": run["volume"][keep].tolist(),
+    }
+
+
+def table(results: list[dict]) -> str:
+    """The results as a Markdown table, each figure beside its correlation."""
+    rows = [
+        "| D (m) | Q (kW) | cells | puffing Hz (vol / tip) | Cetegen–Ahmed Hz | flame height m "
+        "| Heskestad m | plume slope | McCaffrey | wall s |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in results:
+        slope = "—" if r["plume_slope"] is None else f"{r['plume_slope']:.2f}"
+        rows.append(
+            f"| {r['D_m']:g} | {r['Q_kW']:g} | {r['resolution']} ({r['cells_across_D']:.0f} "
+            f"across D) | {r['puffing_volume_hz']:.2f} / {r['puffing_tip_hz']:.2f} | "
+            f"{r['puffing_expected_hz']:.2f} | {r['height_m']:.2f} | "
+            f"{r['height_expected_m']:.2f} | {slope} | −1.67 | {r['wall_s']:.0f} |"
+        )
+    return "\n".join(rows) + "\n"
+
+
+def plot(results: list[dict], path: Path) -> None:
+    """Centreline excess temperature against McCaffrey's, one panel per pool."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(results), figsize=(3.0 * len(results), 3.2), squeeze=False)
+    for ax, r in zip(axes[0], results, strict=True):
+        z = np.array(r["z_m"])
+        ax.loglog(z, np.maximum(r["centreline_excess_K"], 1.0), label="simulated")
+        ax.loglog(z, r["mccaffrey_excess_K"], "--", label="McCaffrey 1979")
+        ax.axvline(r["height_expected_m"], color="grey", lw=0.8)
+        ax.set_title(f"D {r['D_m']:g} m, Q {r['Q_kW']:g} kW ({r['resolution']})", fontsize=8)
+        ax.set_xlabel("z (m)")
+    axes[0][0].set_ylabel("centreline ΔT (K)")
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("out", type=Path, help="OUT: writes OUT.json, OUT.md (and OUT.png)")
+    parser.add_argument("--resolution", type=int, default=64)
+    parser.add_argument("--seconds", type=float, default=12.0)
+    parser.add_argument("--warmup", type=float, default=3.0)
+    parser.add_argument("--pools", default="0.2:10,0.2:20,0.5:50,0.5:150,1.0:200,1.0:600")
+    parser.add_argument("--plot", action="store_true")
+    args = parser.parse_args()
+    results = []
+    for pool in args.pools.split(","):
+        d, q = (float(v) for v in pool.split(":"))
+        results.append(measure(d, q, args.resolution, args.seconds, args.warmup))
+        print(table(results[-1:]).splitlines()[-1], flush=True)
+        args.out.with_suffix(".json").write_text(json.dumps(results, indent=1))
+    args.out.with_suffix(".md").write_text(table(results))
+    if args.plot:
+        plot(results, args.out.with_suffix(".png"))
+
+
+if __name__ == "__main__":
+    main()

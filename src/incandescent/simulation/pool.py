@@ -1,0 +1,170 @@
+"""Pool fires as fire scientists specify them — a diameter D (m), a heat release rate Q (kW) and a
+fuel — and the correlations they are judged by (Cetegen & Ahmed's puffing, Heskestad's flame
+height, McCaffrey's plume), with the measurements that compare a simulation with them.
+
+The Nguyen et al. 2002 model burns a premixed "fuel" at a front moving at S. A pool fire is a
+diffusion flame, so :func:`pool_fire` feeds it the *premixed equivalent*: the fuel with its
+stoichiometric air, ṁ_f(1 + s) with ṁ_f = Q/ΔH_c, entering over the pool's disc at the speed that
+carries that mass at the air's density, burning at the fuel's laminar burning velocity S_L into
+products at its adiabatic flame temperature (expanding by T_ad/T_air, ideal gas at constant
+pressure). The heat released is then Q: ρ_mix V̇ c_p (T_ad − T_air) = ṁ_f ΔH_c. What this
+leaves out — that a real flame mixes its air in along its height, not at the pool — is what the
+validation (``benchmarks/fire_validation.py``, ``docs/simulation.md``) measures.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from incandescent.simulation.settings import FireSettings, Source, air_density_kg_m3, from_changes
+
+
+@dataclass(frozen=True)
+class Fuel:
+    """What a pool fire needs of its fuel: ΔH_c (J/kg, net), the stoichiometric air-to-fuel mass
+    ratio s, the laminar burning velocity S_L (m/s) and the adiabatic flame temperature (K) of
+    its stoichiometric mixture with air at 298 K and one atmosphere."""
+
+    heat_of_combustion_J_kg: float
+    stoichiometric_air: float
+    laminar_speed_m_s: float
+    adiabatic_K: float
+
+
+#: ΔH_c: Tewarson, SFPE Handbook of Fire Protection Engineering (5th ed., 2016), Table A.39
+#: (methane 50.0, propane 46.0, n-heptane 44.6 MJ/kg); s from the reactions CₙH_m + (n + m/4)
+#: (O₂ + 3.76 N₂) (17.2, 15.7, 15.2); S_L: Law, Combustion Physics (2006) Fig. 7.5.1 and Davis &
+#: Law 1998 (Combust. Sci. Technol. 140:427) at φ = 1 (0.37, 0.39, 0.38 m/s); T_ad: Turns, An
+#: Introduction to Combustion (3rd ed., 2012), Table 2.1 at φ = 1 (2226, 2267, 2274 K).
+FUELS: dict[str, Fuel] = {
+    "methane": Fuel(50.0e6, 17.2, 0.37, 2226.0),
+    "propane": Fuel(46.0e6, 15.7, 0.39, 2267.0),
+    "heptane": Fuel(44.6e6, 15.2, 0.38, 2274.0),
+}
+
+
+def fuel_named(name: str) -> Fuel:
+    """The fuel ``name``; an unknown one is a one-line ValueError listing the known ones."""
+    if name not in FUELS:
+        raise ValueError(f"pool fire: unknown fuel {name!r}; expected one of: {', '.join(FUELS)}")
+    return FUELS[name]
+
+
+def inflow_m_s(diameter_m: float, heat_release_kW: float, fuel: Fuel, t_air_K: float) -> float:
+    """The premixed equivalent's speed over the pool (m/s): ṁ_f (1 + s)/(ρ_air · πD²/4) with
+    ṁ_f = Q/ΔH_c (the mixture's density taken as the air's: within 3 % for these fuels)."""
+    fuel_kg_s = heat_release_kW * 1e3 / fuel.heat_of_combustion_J_kg
+    area_m2 = math.pi * diameter_m**2 / 4.0
+    return fuel_kg_s * (1.0 + fuel.stoichiometric_air) / (air_density_kg_m3(t_air_K) * area_m2)
+
+
+def pool_domain_m(diameter_m: float, heat_release_kW: float) -> tuple[float, float, float]:
+    """A box that holds the fire and the start of its plume: 3 D wide, and as tall as the larger
+    of 4 D and 2.5 × Heskestad's flame height (so McCaffrey's plume region is inside)."""
+    height = max(4.0 * diameter_m, 2.5 * heskestad_height_m(heat_release_kW, diameter_m))
+    return (3.0 * diameter_m, height, 3.0 * diameter_m)
+
+
+def pool_fire(
+    diameter_m: float,
+    heat_release_kW: float,
+    fuel: str = "methane",
+    changes: Mapping[str, Any] | None = None,
+    source: str | None = None,
+) -> FireSettings:
+    """A pool fire of ``diameter_m`` releasing ``heat_release_kW`` of ``fuel`` (see the module
+    docstring), in :func:`pool_domain_m`'s box, the pool a disc on the floor; ``changes``: any
+    FireSettings keys over these (from ``source``, a file or flag; validated as a preset's)."""
+    for name, value in (("diameter_m", diameter_m), ("heat_release_kW", heat_release_kW)):
+        if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+            raise ValueError(f"pool fire: {name} must be a positive number; got {value!r}")
+    f, changes = fuel_named(fuel), dict(changes or {})
+    t_air = changes.get("t_air_K", 300.0)
+    t_air = t_air if isinstance(t_air, int | float) and t_air > 0 else 300.0  # checked below
+    keys = {
+        "domain_m": pool_domain_m(diameter_m, heat_release_kW),
+        "flame_speed_m_s": f.laminar_speed_m_s,
+        "density_ratio": f.adiabatic_K / t_air,
+        "t_max_K": f.adiabatic_K,
+        "sources": (
+            Source(
+                kind="nozzle",
+                centre=(0.5, 0.02, 0.5),  # on the floor
+                radius_m=diameter_m / 2.0,
+                jet_m_s=inflow_m_s(diameter_m, heat_release_kW, f, t_air),
+            ),
+        ),
+    }
+    where = f"pool fire D={diameter_m:g} m, Q={heat_release_kW:g} kW"
+    return from_changes("campfire", keys | changes, f"{where}{', ' + source if source else ''}")
+
+
+# --- the correlations -----------------------------------------------------------------------
+
+
+def puffing_hz(diameter_m: float) -> float:
+    """f = 1.5 D^(−1/2) Hz (D in m): the puffing of buoyant pool fires from 0.03 to 50 m
+    (Cetegen & Ahmed 1993, Combust. Flame 93:157, their fit to 40 years of data)."""
+    return 1.5 / math.sqrt(diameter_m)
+
+
+def heskestad_height_m(heat_release_kW: float, diameter_m: float) -> float:
+    """L = 0.235 Q^(2/5) − 1.02 D (m; Q in kW): the mean height of the luminous flame, where it
+    is present half the time (Heskestad 1983, Fire Saf. J. 5:103; SFPE Handbook ch. 13)."""
+    return 0.235 * heat_release_kW**0.4 - 1.02 * diameter_m
+
+
+def mccaffrey_excess_K(height_m: np.ndarray, heat_release_kW: float, t_air_K: float = 300.0):
+    """The time-mean centreline excess temperature ΔT (K) of a fire plume (McCaffrey 1979,
+    NBSIR 79-1910): 2gΔT/T_air = (κ/C)² (z/Q^(2/5))^(2η−1) with (κ, η) = (6.8, ½) in the
+    continuous flame (z/Q^(2/5) < 0.08 m/kW^(2/5)), (1.9, 0) intermittent (< 0.2), (1.1, −⅓)
+    plume — there ΔT ∝ z^(−5/3); C = 0.9."""
+    z = np.asarray(height_m, dtype=float) / heat_release_kW**0.4
+    kappa = np.where(z < 0.08, 6.8, np.where(z < 0.2, 1.9, 1.1))
+    eta = np.where(z < 0.08, 0.5, np.where(z < 0.2, 0.0, -1.0 / 3.0))
+    return t_air_K / (2.0 * 9.81) * (kappa / 0.9) ** 2 * z ** (2.0 * eta - 1.0)
+
+
+# --- measuring a simulation -----------------------------------------------------------------
+
+
+def dominant_hz(signal: np.ndarray, rate_hz: float, lowest_hz: float = 0.5) -> float:
+    """The frequency (Hz) of the largest peak of a signal's periodogram above ``lowest_hz``
+    (the mean removed, a Hann window; parabolic interpolation between bins)."""
+    x = np.asarray(signal, dtype=float)
+    x = (x - x.mean()) * np.hanning(x.size)
+    power = np.abs(np.fft.rfft(x)) ** 2
+    freq = np.fft.rfftfreq(x.size, 1.0 / rate_hz)
+    usable = np.nonzero(freq >= lowest_hz)[0]
+    k = int(usable[np.argmax(power[usable])])
+    if 0 < k < power.size - 1:
+        a, b, c = np.log(power[k - 1 : k + 2] + 1e-300)
+        k += 0.5 * (a - c) / (a - 2.0 * b + c) if a - 2.0 * b + c < 0 else 0.0
+    return float(k * rate_hz / x.size)
+
+
+def intermittency_height_m(present: np.ndarray, cell_m: float) -> float:
+    """The height (m) where flame is present half the time: ``present`` (samples, heights) says
+    whether each horizontal layer holds flame; its fraction over the samples, falling with
+    height, crosses ½ there (linear between layer centres)."""
+    fraction = np.asarray(present, dtype=float).mean(axis=0)
+    above = np.nonzero(fraction < 0.5)[0]
+    if fraction.size == 0 or fraction[0] < 0.5:
+        return 0.0
+    if above.size == 0:
+        return fraction.size * cell_m
+    j = int(above[0])
+    t = (fraction[j - 1] - 0.5) / (fraction[j - 1] - fraction[j])
+    return (j - 0.5 + t) * cell_m
+
+
+def power_law_slope(height_m: np.ndarray, excess_K: np.ndarray) -> float:
+    """d ln ΔT / d ln z: the least-squares slope of a centreline profile in log–log."""
+    z, dT = np.asarray(height_m, dtype=float), np.asarray(excess_K, dtype=float)
+    keep = (z > 0) & (dT > 0)
+    return float(np.polyfit(np.log(z[keep]), np.log(dT[keep]), 1)[0])
