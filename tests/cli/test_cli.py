@@ -131,7 +131,7 @@ def test_render_refuses_to_overwrite_before_rendering(npy, tmp_path):
         (
             lambda d: np.savez(d / "x.npz", foo=np.ones((2, 2, 2))),
             ["x.npz"],
-            "no temperature grid: looked for temperature, heat, temp; the file has: foo",
+            "no temperature grid: looked for temperature, heat, temp, T; the file has: foo",
         ),
         (lambda d: None, ["missing.npy"], "missing.npy: no such volume file"),
         (
@@ -453,9 +453,9 @@ def test_animate_takes_species_like_render(tmp_path):
 
 
 def test_help_keeps_the_defaults_in_brackets():
-    """Rich markup used to eat "[temperature, heat or temp]"-like defaults from the help."""
+    """Rich markup used to eat "[temperature, heat, temp or T]"-like defaults from the help."""
     text = " ".join(_run("render", "--help").output.split())
-    for default in ("[temperature, heat or temp]", "[preset's, else y]", "[shipped]", "[xyz]"):
+    for default in ("[temperature, heat, temp or T]", "[preset's, else y]", "[shipped]", "[xyz]"):
         assert default in text, default
 
 

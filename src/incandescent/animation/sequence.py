@@ -64,14 +64,26 @@ def _same_job(recorded: str | None, wanted: str) -> bool:
 
 
 def file_identity(path: str | Path) -> str:
-    """A file's resolved path, size and modification time (ns): changes when the file does."""
-    info = Path(path).stat()
-    return f"{Path(path).resolve()} {info.st_size} {info.st_mtime_ns}"
+    """A file's resolved path, size and modification time (ns): changes when the file does. A
+    folder (an OpenFOAM time folder): the same of each file in it."""
+    path = Path(path)
+    if path.is_dir():
+        return " ".join(file_identity(p) for p in sorted(path.iterdir()) if p.is_file())
+    info = path.stat()
+    return f"{path.resolve()} {info.st_size} {info.st_mtime_ns}"
 
 
 def expand_sequence(pattern: str) -> list[Path]:
-    """Files of a sequence: a glob (``cache/*.vdb``) or a ``####`` frame pattern, sorted."""
+    """Files of a sequence: a glob (``cache/*.vdb``) or a ``####`` frame pattern, sorted; or a
+    series in one path — a ParaView ``.pvd`` (its files in time order) or an OpenFOAM case (its
+    time folders; ``io.vtk.sequence_frames``)."""
     import glob
+
+    from incandescent.io.vtk import sequence_frames
+
+    series = sequence_frames(pattern) if "*" not in pattern and "#" not in pattern else None
+    if series is not None:
+        return series
 
     glob_pattern = pattern.replace("#", "[0-9]") if "#" in pattern else pattern
     paths = sorted(Path(p) for p in glob.glob(glob_pattern))

@@ -231,9 +231,10 @@ def info(o: Given) -> None:
     warn about grids named like temperature that cannot be kelvin, and name the preset a known
     cache needs."""
     from incandescent import api
+    from incandescent.io.vtk import is_openfoam
 
     path, axes = o.path, o.axes
-    if path.is_dir():
+    if path.is_dir() and not is_openfoam(path):
         _simulation_info(path, o.as_json)
         return
     with _guarded():

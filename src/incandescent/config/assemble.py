@@ -16,6 +16,7 @@ from incandescent.volume.grid import Remap, Volume
 from incandescent.volume.presets import (
     PRESET_SCATTERING,
     apply_preset,
+    get_preset,
     preset_parameters,
     resolve_grid_name,
 )
@@ -47,12 +48,14 @@ def load_volume(
     return volume_from_section(spec, remap or Remap(), layout=layout)
 
 
-def _grid_name(role: str, names: dict[str, str], available: tuple[str, ...], required: bool):
+def _grid_name(
+    role: str, names: dict[str, str], available: tuple[str, ...], required: bool, aliases=None
+):
     if role in names:
         return names[role]
     if role in OPTIONAL_ROLES:
         return role if role in available else None
-    return resolve_grid_name(role, available, required=required)
+    return resolve_grid_name(role, available, required, aliases)
 
 
 def volume_from_section(
@@ -71,7 +74,7 @@ def volume_from_section(
     (``spec.velocity_units`` "voxels/frame" are converted to m/s with it). ``velocity``: read
     the velocity grid (in m/s) without blurring — what ``convert`` carries to its output."""
     limits = limits or Limits()
-    source = open_grids(spec.path, spec.axes, limits)
+    source = open_grids(spec.path, spec.axes, limits, spec.resolution)
     roles = _roles(spec, source)
     if blur_fps is not None or velocity:
         roles["velocity"] = _velocity_grid(spec, source)
@@ -153,8 +156,11 @@ def _roles(spec: VolumeSection, source) -> dict[str, str | None]:
     """Grid name per role (temperature or the preset's roles, then the optional ones)."""
     names = spec.grids.given()
     core_roles = PRESET_ROLES if spec.preset else ("temperature",)
+    aliases = get_preset(spec.preset).aliases if spec.preset else None
     try:
-        roles = {r: _grid_name(r, names, source.names, not spec.preset) for r in core_roles}
+        roles = {
+            r: _grid_name(r, names, source.names, not spec.preset, aliases) for r in core_roles
+        }
     except ValueError as error:
         raise ValueError(f"{source.path}: {error}") from None
     for role in OPTIONAL_ROLES:

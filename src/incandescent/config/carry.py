@@ -21,7 +21,7 @@ def carried(
 ) -> tuple[VolumeSection, bool, list[str]]:
     """``spec`` with the file's species grids added (a grid named as a species of the line
     table), whether to read its velocity grid, and a note per grid left out."""
-    names = open_grids(spec.path, spec.axes, limits).names
+    names = open_grids(spec.path, spec.axes, limits, spec.resolution).names
     species = dict(spec.species) | _species_grids(names, line_table, spec)
     velocity_grid = spec.grids.velocity or resolve_grid_name("velocity", names, required=False)
     notes = []

@@ -171,6 +171,9 @@ class VolumeSection(_Section):
     species: dict[str, str | float] = Field(default_factory=dict)
     #: Order of the stored array axes (e.g. "zyx") where the file does not say it.
     axes: Literal["xyz", "xzy", "yxz", "yzx", "zxy", "zyx"] | None = None
+    #: Voxels along the longest side of a VTK/OpenFOAM dataset resampled onto voxels
+    #: (``io.vtk``); None: chosen from its cell count.
+    resolution: int | None = Field(default=None, ge=1, le=4096)
     #: Units of the velocity grid (motion blur): metres per second, or voxels per frame; and a
     #: factor on it (Blender's Volume "Velocity Scale": Mantaflow stores cells per its own time
     #: unit, proportional to the domain's resolution, so a bake needs its factor).
@@ -225,7 +228,7 @@ def _scattering_problem(section: VolumeSection) -> None:
         raise _fail('give scattering (1/m, a grid name or "preset") or albedo, not both')
     if section.scattering == "preset" and section.preset is None:
         raise _fail('scattering = "preset" splits a preset\'s smoke: name the preset (blender, '
-                    "houdini, embergen)")  # fmt: skip
+                    "houdini, embergen, openfoam)")  # fmt: skip
     constant = None if isinstance(section.scattering, str) else section.scattering
     g = 0.0 if isinstance(section.phase_g, str) else section.phase_g  # a grid: checked when read
     one = Volume.from_arrays(np.ones((1, 1, 1)), absorption=1.0, source="volume")

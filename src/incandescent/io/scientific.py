@@ -65,7 +65,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 from types import ModuleType
-from typing import Any
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -300,7 +300,17 @@ def _source(
     return GridSource(path, tuple(layouts), read, notes)
 
 
-def _layout_for(path: Path, layouts: Mapping[str, _Layout], name: str) -> _Layout:
+class _Readable(Protocol):
+    @property
+    def problem(self) -> str | None: ...
+
+
+_Entry = TypeVar("_Entry", bound=_Readable)
+
+
+def _layout_for(path: Path, layouts: Mapping[str, _Entry], name: str) -> _Entry:
+    """The entry of grid ``name`` (an error listing the names if none; its problem if any).
+    Also the VTK reader's (``io.vtk``)."""
     if name not in layouts:
         raise ValueError(f"{path}: no grid named {name!r}; the file has: {', '.join(layouts)}")
     layout = layouts[name]

@@ -22,12 +22,18 @@ from numpy.typing import NDArray
 
 from incandescent.budget import Limits
 from incandescent.io import vdb
-from incandescent.io.formats import SCIENCE_SUFFIXES, VDB_SUFFIXES, VOLUME_SUFFIXES
+from incandescent.io.formats import (
+    SCIENCE_SUFFIXES,
+    VDB_SUFFIXES,
+    VOLUME_SUFFIXES,
+    VTK_INPUT_SUFFIXES,
+)
 from incandescent.io.grids import Grids, GridSource
 from incandescent.io.vdb.source import (  # imported from here (config.assemble)
     DENSE_READ_BYTES_PER_VOXEL as DENSE_READ_BYTES_PER_VOXEL,
 )
 from incandescent.io.vdb.source import open_source
+from incandescent.io.vtk import is_openfoam, open_vtk
 
 SUFFIXES = VOLUME_SUFFIXES
 
@@ -224,17 +230,23 @@ def check_input_file(path: Path, what: str = "volume file") -> Path:
 
 
 def open_grids(
-    path: str | Path, axes: str | None = None, limits: Limits | None = None
+    path: str | Path,
+    axes: str | None = None,
+    limits: Limits | None = None,
+    resolution: int | None = None,
 ) -> GridSource:
     """Open a volume file (errors name the file and the problem).
 
     ``axes``: the order of the stored array axes (e.g. "zyx") for files that do not say it
     (HDF5/NetCDF without axis metadata, .npy/.npz); arrays are returned in x, y, z order.
     ``limits``: NumPy grids are checked against them from their headers before their data are
-    read (default: the memory available now)."""
+    read (default: the memory available now). ``resolution``: voxels along the longest side of
+    a VTK/OpenFOAM dataset resampled onto voxels (``io.vtk``; default chosen from its cells)."""
     path = Path(path)
     limits = limits or Limits()
     suffix = path.suffix.lower()
+    if suffix in VTK_INPUT_SUFFIXES or (path.is_dir() and is_openfoam(path)):
+        return open_vtk(path, resolution, limits)
     if os.path.lexists(path):
         check_input_file(path)
     if suffix not in SUFFIXES:
@@ -325,13 +337,15 @@ class GridSummary:
         }
 
 
-def describe(path: str | Path, axes: str | None = None) -> list[GridSummary]:
+def describe(
+    path: str | Path, axes: str | None = None, resolution: int | None = None
+) -> list[GridSummary]:
     """A summary of every grid in a volume file: type, shape, value range and sum, active
     voxels and their box, placement."""
     path = Path(path)
     if path.suffix.lower() in VDB_SUFFIXES and path.is_file():
         return _describe_vdb(path)
-    source = open_grids(path, axes)
+    source = open_grids(path, axes, resolution=resolution)
     return [_summary(source, name) for name in source.names]
 
 

@@ -49,6 +49,20 @@ Color) · density, Color 0.5 and Absorption Color black (Blender,
 ``source/blender/gpu/shaders/material/gpu_shader_material_volume_principled.glsl``). For
 ``houdini`` and ``embergen`` it is our convention (the same split).
 
+``openfoam``
+    OpenFOAM cases (read through VTK, ``io.vtk``): the temperature is the field ``T`` (or
+    ``temperature``), already kelvin — OpenFOAM is SI and the reader checks the field's
+    dimensions. Soot: a volume fraction f_v (``soot``, ``fv``, ``soot_fv``, ``sootVolumeFraction``)
+    or a mass fraction Y (``Ysoot``, ``Y_soot``, ``soot_Y``), turned into a volume fraction
+    f_v = Y·ρ/ρ_soot with the gas density ρ = p·M/(R·T) of an ideal gas [``pressure_Pa`` =
+    101325, ``molar_mass_kg_mol`` = 0.02897, air] and the soot density [``soot_density_kg_m3`` =
+    1800]. Absorption at 550 nm in the Rayleigh limit: κ = 6π·E(m)·f_v/λ [``soot_E_m`` = 0.26 at
+    550 nm], times ``density_scale`` [1.0]; with the renderer's κ_λ ∝ 1/λ (soot_alpha 1) this is
+    the same law at every wavelength. Without a soot field κ is the renderer's default.
+    Sources: Bohren & Huffman, *Absorption and Scattering of Light by Small Particles* (1983),
+    eq. 5.11 (small-particle absorption cross-section); Chang & Charalampopoulos, Proc. R. Soc.
+    Lond. A 430 (1990) 577 (E(m) of soot); soot density 1800 kg/m³ as in fireFoam's soot models.
+
 Use a preset's ``parameters`` (or the scene's ``volume.preset_options``) when a cache was made
 with other domain settings; use ``volume.temperature`` (offset/scale or range) for anything else.
 """
@@ -57,7 +71,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TypedDict
 
 import numpy as np
@@ -67,7 +81,7 @@ from incandescent import _validate
 
 #: Grid roles and the file grid names that fill them, in order of preference.
 ROLE_ALIASES: dict[str, tuple[str, ...]] = {
-    "temperature": ("temperature", "heat", "temp"),
+    "temperature": ("temperature", "heat", "temp", "T"),
     "flame": ("flame", "flames", "fire"),
     "density": ("density", "smoke", "soot"),
     "absorption": ("absorption",),
@@ -107,6 +121,11 @@ class Preset:
     defaults: Mapping[str, float]
     to_kelvin: Callable[[NDArray[np.float64], Params], NDArray[np.float64]]
     formula: str
+    #: role → the file names that fill it, replacing :data:`ROLE_ALIASES` for those roles
+    aliases: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    #: (grids, explicit names, parameters, T in K) → (κ in 1/m or None, what was done);
+    #: None: κ = density_scale · the density grid (:func:`_preset_absorption`)
+    absorption: Callable[..., tuple[NDArray[np.float64] | None, str]] | None = None
 
 
 def _blender_kelvin(flame: NDArray[np.float64], p: Params) -> NDArray[np.float64]:
@@ -122,6 +141,41 @@ def _blender_kelvin(flame: NDArray[np.float64], p: Params) -> NDArray[np.float64
 def _normalised_kelvin(temperature: NDArray[np.float64], p: Params) -> NDArray[np.float64]:
     _validate.positive_scalar(p["kelvin_per_unit"], "kelvin_per_unit")
     return np.maximum(p["ambient_K"] + p["kelvin_per_unit"] * temperature, 0.0)
+
+
+#: Soot: the Rayleigh-limit absorption κ = 6π·E(m)·f_v/λ at this wavelength (Bohren & Huffman
+#: 1983, eq. 5.11); the gas constant for the ideal-gas density of the openfoam preset.
+SOOT_WAVELENGTH_M = 550e-9
+GAS_CONSTANT_J_MOL_K = 8.314462618
+#: OpenFOAM field names: temperature; soot as a volume fraction; soot as a mass fraction.
+OPENFOAM_ALIASES: dict[str, tuple[str, ...]] = {
+    "temperature": ("T", "temperature"),
+    "flame": (),
+    "density": ("soot", "fv", "soot_fv", "sootVolumeFraction", "Ysoot", "Y_soot", "soot_Y"),
+}
+OPENFOAM_MASS_FRACTIONS = frozenset({"Ysoot", "Y_soot", "soot_Y"})
+
+
+def _openfoam_absorption(
+    grids: Grids, grid_names: Mapping[str, str] | None, p: Params, kelvin: NDArray[np.float64]
+) -> tuple[NDArray[np.float64] | None, str]:
+    """κ (1/m) from a soot volume or mass fraction (see the module docstring, ``openfoam``)."""
+    picked = _pick(grids, "density", grid_names, False, OPENFOAM_ALIASES)
+    if picked is None:
+        return None, "no soot field: default absorption"
+    name, soot = picked
+    how = f"f_v = {name!r}"
+    if name in OPENFOAM_MASS_FRACTIONS:
+        with np.errstate(divide="ignore"):
+            rho = np.where(kelvin > 0, p["pressure_Pa"] * p["molar_mass_kg_mol"]
+                           / (GAS_CONSTANT_J_MOL_K * kelvin), 0.0)  # fmt: skip
+        soot = soot * rho / p["soot_density_kg_m3"]
+        how = (
+            f"f_v = {name!r}·ρ/{p['soot_density_kg_m3']:g} kg/m³, ρ = p·M/(R·T) at "
+            f"{p['pressure_Pa']:g} Pa, M = {p['molar_mass_kg_mol']:g} kg/mol"
+        )
+    factor = p["density_scale"] * 6.0 * np.pi * p["soot_E_m"] / SOOT_WAVELENGTH_M
+    return factor * np.maximum(soot, 0.0), f"{how}; κ = 6π·{p['soot_E_m']:g}·f_v/550 nm"
 
 
 _NORMALISED = {
@@ -157,6 +211,23 @@ PRESETS: dict[str, Preset] = {
         _normalised_kelvin,
         _NORMALISED_FORMULA,
     ),
+    "openfoam": Preset(
+        "openfoam",
+        "OpenFOAM: T in kelvin, soot fraction to κ",
+        "temperature",
+        {
+            "pressure_Pa": 101325.0,
+            "molar_mass_kg_mol": 0.02897,
+            "soot_density_kg_m3": 1800.0,
+            "soot_E_m": 0.26,
+            "density_scale": 1.0,
+            "smoke_albedo": 0.5,
+        },
+        lambda temperature, p: np.maximum(temperature, 0.0),
+        "T = {grid} (kelvin)",
+        OPENFOAM_ALIASES,
+        _openfoam_absorption,
+    ),
 }
 
 
@@ -191,9 +262,13 @@ def preset_parameters(name: str, parameters: Params | None = None) -> dict[str, 
 
 
 def resolve_grid_name(
-    role: str, available_names: Iterable[str], required: bool = True
+    role: str,
+    available_names: Iterable[str],
+    required: bool = True,
+    aliases: Mapping[str, tuple[str, ...]] | None = None,
 ) -> str | None:
-    """The grid in ``available_names`` that fills ``role``, found through :data:`ROLE_ALIASES`.
+    """The grid in ``available_names`` that fills ``role``, found through :data:`ROLE_ALIASES`
+    (or a preset's ``aliases`` for the roles it names).
 
     Exact names are preferred in alias order, then a case-insensitive match. When nothing
     matches: ``ValueError`` naming the aliases tried and the available names if ``required``,
@@ -202,33 +277,37 @@ def resolve_grid_name(
     if role not in ROLE_ALIASES:
         raise ValueError(f"unknown grid role {role!r}; expected one of: {', '.join(ROLES)}")
     names = list(available_names)
-    aliases = ROLE_ALIASES[role]
-    for alias in aliases:
+    aliases_of_role = (aliases or {}).get(role, ROLE_ALIASES[role])
+    for alias in aliases_of_role:
         if alias in names:
             return alias
     by_lower = {n.lower(): n for n in names}
     by_leaf = {n.rsplit("/", 1)[-1].lower(): n for n in names}  # HDF5 paths: "fields/temperature"
-    for alias in aliases:
+    for alias in aliases_of_role:
         for lookup in (by_lower, by_leaf):
             if alias in lookup:
                 return lookup[alias]
     if not required:
         return None
     raise ValueError(
-        f"no {role} grid: looked for {', '.join(aliases)}; "
+        f"no {role} grid: looked for {', '.join(aliases_of_role) or 'none'}; "
         f"the file has: {', '.join(names) or 'no grids'}"
     )
 
 
 def _pick(
-    grids: Grids, role: str, grid_names: Mapping[str, str] | None, required: bool
+    grids: Grids,
+    role: str,
+    grid_names: Mapping[str, str] | None,
+    required: bool,
+    aliases: Mapping[str, tuple[str, ...]] | None = None,
 ) -> tuple[str, NDArray[np.float64]] | None:
     chosen = (grid_names or {}).get(role)
     if chosen is not None and chosen not in grids:
         raise ValueError(
             f"no grid named {chosen!r} for {role}; the file has: {', '.join(grids) or 'no grids'}"
         )
-    name = chosen or resolve_grid_name(role, grids, required)
+    name = chosen or resolve_grid_name(role, grids, required, aliases)
     if name is None:
         return None
     arr = _validate.finite(_validate.real_array(grids[name], f"grid {name!r}"), f"grid {name!r}")
@@ -246,7 +325,7 @@ def apply_preset(
     Parameters
     ----------
     name:
-        ``"blender"``, ``"houdini"`` or ``"embergen"`` (see the module docstring).
+        ``"blender"``, ``"houdini"``, ``"embergen"`` or ``"openfoam"`` (the module docstring).
     grids:
         The file's grids by their names in the file (e.g. ``{"flame": ..., "density": ...}``).
     parameters:
@@ -267,11 +346,14 @@ def apply_preset(
     """
     preset = get_preset(name)
     params = preset_parameters(name, parameters)
-    picked = _pick(grids, preset.temperature_role, grid_names, required=True)
+    picked = _pick(grids, preset.temperature_role, grid_names, True, preset.aliases)
     assert picked is not None  # required=True raised otherwise
     grid, raw = picked
     kelvin = preset.to_kelvin(raw, params)
-    absorption, how = _preset_absorption(grids, grid_names, params["density_scale"], raw.shape)
+    if preset.absorption is not None:
+        absorption, how = preset.absorption(grids, grid_names, params, kelvin)
+    else:
+        absorption, how = _preset_absorption(grids, grid_names, params["density_scale"], raw.shape)
     formula = preset.formula.format(grid=repr(grid), **params)
     description = f"preset {name} ({preset.summary}): {formula}; {how}"
     return {"temperature_K": kelvin, "absorption_per_m": absorption, "description": description}
