@@ -248,6 +248,35 @@ def test_vtu_point_data_linear_field_is_reproduced_exactly(tmp_path):
     assert np.all(grids.arrays["T"][~inside] == 0)  # outside the mesh: vacuum
 
 
+def test_legacy_vtk_and_image_vti_read_like_their_xml_and_array(tmp_path):
+    from vtkmodules.vtkIOLegacy import vtkStructuredPointsWriter, vtkUnstructuredGridWriter
+
+    mesh = hex_mesh(XS, YS, ZS)
+    pts = vtk_np.vtk_to_numpy(mesh.GetPoints().GetData())
+    mesh.GetPointData().AddArray(_vtk_array("T", linear(*pts.T)))
+    legacy = tmp_path / "lin.vtk"
+    writer = vtkUnstructuredGridWriter()
+    writer.SetFileName(str(legacy))
+    writer.SetInputData(mesh)
+    writer.SetFileTypeToBinary()
+    assert writer.Write() == 1
+    xml = open_grids(write_vtu(tmp_path / "lin.vtu", mesh), resolution=20).read(["T"])
+    np.testing.assert_array_equal(open_grids(legacy, resolution=20).read(["T"]).arrays["T"],
+                                  xml.arrays["T"])  # fmt: skip
+    values = np.arange(60, dtype=np.float32).reshape(3, 4, 5)
+    image = vtkImageData()
+    image.SetDimensions(4, 5, 6)
+    image.SetSpacing(0.2, 0.2, 0.2)
+    image.GetCellData().SetScalars(_vtk_array("temperature", _flat(values)))
+    points = vtkStructuredPointsWriter()
+    points.SetFileName(str(tmp_path / "img.vtk"))
+    points.SetInputData(image)
+    assert points.Write() == 1
+    read = open_grids(tmp_path / "img.vtk").read(["temperature"])
+    np.testing.assert_array_equal(read.arrays["temperature"], values)
+    assert read.voxel_size_m == pytest.approx(0.2)
+
+
 def test_vtu_cell_data_is_constant_over_each_cell(tmp_path):
     mesh = hex_mesh(XS, YS, ZS)
     cx, cy, cz = (np.convolve(c, [0.5, 0.5], "valid") for c in (XS, YS, ZS))
