@@ -175,6 +175,21 @@ def test_openfoam_case_reads_latest_time_in_kelvin_from_its_dimensions():
     np.testing.assert_array_equal(grids.arrays["T"], expected)
 
 
+def test_openfoam_up_axis_is_against_gravity(tmp_path):
+    case = shutil.copytree(CASE, tmp_path / "z_up")
+    (case / "constant" / "g").write_text(
+        (CASE / "constant" / "g").read_text().replace("(0 -9.81 0)", "(0 0 -9.81)")
+    )
+    given = volume_from_section(VolumeSection(path=case, resolution=20, up_axis="z"), Remap())
+    found = volume_from_section(VolumeSection(path=case, resolution=20), Remap())
+    as_is = volume_from_section(VolumeSection(path=CASE, resolution=20), Remap())
+    assert (
+        found.temperature_K.shape == given.temperature_K.shape == (14, 14, 20)
+    )  # z up: (x, z, −y)
+    np.testing.assert_array_equal(found.temperature_K, given.temperature_K)
+    assert as_is.temperature_K.shape == (14, 20, 14)  # −y gravity: y is up already
+
+
 def test_openfoam_time_folders_are_the_animation_frames():
     assert [p.name for p in expand_sequence(str(CASE))] == ["0", "0.1", "0.2", "0.3", "0.4"]
     assert expand_sequence(str(CASE / "case.foam"))[-1] == CASE / "0.4"

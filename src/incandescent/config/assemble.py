@@ -12,6 +12,7 @@ import numpy as np
 from incandescent.budget import Limits
 from incandescent.config.schema import GridNames, VolumeSection
 from incandescent.io.volumes import DENSE_READ_BYTES_PER_VOXEL, open_grids
+from incandescent.io.vtk import openfoam_up_axis
 from incandescent.volume.grid import Remap, Volume
 from incandescent.volume.presets import (
     PRESET_SCATTERING,
@@ -171,7 +172,10 @@ def _roles(spec: VolumeSection, source) -> dict[str, str | None]:
 
 
 def _up_axis(spec: VolumeSection) -> str:
-    return spec.up_axis or PRESET_UP_AXIS.get(spec.preset or "", "y")
+    """Given, else the preset's, else an OpenFOAM case's (against its gravity), else y."""
+    if spec.up_axis or spec.preset in PRESET_UP_AXIS:
+        return spec.up_axis or PRESET_UP_AXIS[spec.preset or ""]
+    return openfoam_up_axis(spec.path) or "y"
 
 
 def _assembled(spec, source, roles, grids, by_role, remap, voxel, origin, box_side_m=None):

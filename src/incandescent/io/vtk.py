@@ -11,7 +11,8 @@ Files and folders
   (what ParaView opens), or one of its time folders (``case/0.4``), read by
   ``vtkOpenFOAMReader`` (reconstructed cases: the ``internalMesh`` region; decomposed
   ``processor*`` folders are not read: run ``reconstructPar``). A case renders its latest time;
-  ``animate`` renders each time folder.
+  ``animate`` renders each time folder. Up is against the case's gravity (``constant/g`` along −y
+  or −z: :func:`openfoam_up_axis`, which ``config.assemble`` applies unless an up axis is given).
 
 Grids
 -----
@@ -71,7 +72,7 @@ from incandescent.io.formats import OPENFOAM_SUFFIXES, PVD_SUFFIXES, VTK_SUFFIXE
 from incandescent.io.grids import Grids, GridSource
 from incandescent.io.scientific import TEMPERATURE_UNITS, _layout_for, to_kelvin
 
-__all__ = ["is_openfoam", "open_vtk", "sequence_frames", "voxel_grid"]
+__all__ = ["is_openfoam", "open_vtk", "openfoam_up_axis", "sequence_frames", "voxel_grid"]
 
 log = logging.getLogger("incandescent")
 
@@ -118,6 +119,27 @@ def sequence_frames(path: str | Path) -> list[Path] | None:
         if time is None:
             return [case / name for name, _ in _foam_times(case)]
     return None
+
+
+_FOAM_GRAVITY = re.compile(r"value\s*\(\s*(\S+)\s+(\S+)\s+(\S+)\s*\)")
+
+
+def openfoam_up_axis(path: str | Path) -> str | None:
+    """ "y" or "z" when ``path`` is an OpenFOAM case whose ``constant/g`` points along −y or −z
+    (up is against gravity); None for anything else (no case, no g, another direction)."""
+    try:
+        case, _ = _case_and_time(Path(path))
+        text = (case / "constant" / "g").read_text(errors="replace")
+    except (ValueError, OSError):
+        return None
+    found = _FOAM_GRAVITY.search(text)
+    try:
+        g = np.array([float(v) for v in found.groups()]) if found else np.zeros(3)
+    except ValueError:
+        return None
+    axis = int(np.argmax(np.abs(g)))
+    along = g[axis] < 0 and np.allclose(np.delete(g, axis), 0.0)
+    return {1: "y", 2: "z"}.get(axis) if along else None
 
 
 def voxel_grid(
