@@ -221,7 +221,7 @@ def _vtk(module: str, path: Path) -> Any:
         return importlib.import_module(f"vtkmodules.{module}")
     except ImportError:
         raise ValueError(
-            f"{path}: reading {path.suffix or 'OpenFOAM'} input needs VTK: {INSTALL_HINT}"
+            f"{path}: reading VTK, ParaView or OpenFOAM input needs VTK: {INSTALL_HINT}"
         ) from None
 
 
