@@ -248,11 +248,35 @@ def test_voxel_grid_follows_the_documented_rule():
     assert voxel_grid((0, 1, 0, 1, 0, 1), cells=10**9)[0] == (256, 256, 256)
 
 
-def test_vtu_point_data_linear_field_is_reproduced_exactly(tmp_path):
+def _as_format(tmp_path: Path, mesh, suffix: str) -> Path:
+    """``mesh`` (hexahedra on XS, YS, ZS, with its point data) as a .vtu, .vts or .vtr file."""
+    from vtkmodules.vtkCommonDataModel import vtkRectilinearGrid, vtkStructuredGrid
+    from vtkmodules.vtkIOXML import vtkXMLRectilinearGridWriter, vtkXMLStructuredGridWriter
+
+    if suffix == ".vtu":
+        return write_vtu(tmp_path / "lin.vtu", mesh)
+    if suffix == ".vts":
+        grid, writer = vtkStructuredGrid(), vtkXMLStructuredGridWriter()
+        grid.SetPoints(mesh.GetPoints())
+    else:
+        grid, writer = vtkRectilinearGrid(), vtkXMLRectilinearGridWriter()
+        grid.SetXCoordinates(_vtk_array("x", XS))
+        grid.SetYCoordinates(_vtk_array("y", YS))
+        grid.SetZCoordinates(_vtk_array("z", ZS))
+    grid.SetDimensions(len(XS), len(YS), len(ZS))
+    grid.GetPointData().ShallowCopy(mesh.GetPointData())
+    writer.SetFileName(str(tmp_path / f"lin{suffix}"))
+    writer.SetInputData(grid)
+    assert writer.Write() == 1
+    return tmp_path / f"lin{suffix}"
+
+
+@pytest.mark.parametrize("suffix", [".vtu", ".vts", ".vtr"])
+def test_point_data_linear_field_is_reproduced_exactly(tmp_path, suffix):
     mesh = hex_mesh(XS, YS, ZS)
     pts = vtk_np.vtk_to_numpy(mesh.GetPoints().GetData())
     mesh.GetPointData().AddArray(_vtk_array("T", linear(*pts.T)))
-    source = open_grids(write_vtu(tmp_path / "lin.vtu", mesh), resolution=30)
+    source = open_grids(_as_format(tmp_path, mesh, suffix), resolution=30)
     grids = source.read(["T"])
     shape, origin, side = voxel_grid(mesh.GetBounds(), mesh.GetNumberOfCells(), 30)
     centres = [origin[a] + (np.arange(shape[a]) + 0.5) * side for a in range(3)]
