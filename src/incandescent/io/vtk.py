@@ -6,7 +6,9 @@ Files and folders
   VTK's XML readers; ``.vtk``: its legacy reader (``vtkDataSetReader``, any dataset type).
 - ``.pvd``: a ParaView collection of those files, one per time step (``<DataSet timestep=…
   file=…>``). ``render`` reads the last time step; ``animate`` renders every step in time order
-  (:func:`sequence_frames`). One part per time step (multi-part collections are refused).
+  (:func:`sequence_frames`). One part per time step (multi-part collections are refused). The
+  ``vtk`` wheel has no ``.pvd`` reader (ParaView's ``vtkPVDReader`` is not in it), so the
+  collection's small XML is read here; each of its files through VTK.
 - OpenFOAM: a case folder (it has ``system/controlDict``), a ``.foam``/``.OpenFOAM`` file in one
   (what ParaView opens), or one of its time folders (``case/0.4``), read by
   ``vtkOpenFOAMReader`` (reconstructed cases: the ``internalMesh`` region; decomposed
