@@ -4,7 +4,7 @@ Run with Blender's own Python (Debian 12's ``blender`` package is Blender 3.4.1)
 
     blender -b --factory-startup --python scripts/make_blender_fire_cache.py -- OUTDIR \
         [--frames 20] [--resolution 64] [--compression BLOSC|ZIP|NONE] [--precision 16|32] \
-        [--flow-type FIRE|BOTH]
+        [--flow-type FIRE|BOTH] [--scene]
 
 The scene: a gas domain 1 × 1 × 2 m (tall in z) at ``--resolution`` cells along its longest side
 (64 → 32 × 32 × 64 voxels) and a small cube near the floor emitting FIRE (flame + fuel + heat),
@@ -45,6 +45,12 @@ def parse_args() -> argparse.Namespace:
         default=None,
         help="the emitter pushes its gas up (+z) at this many m/s, and the domain has no buoyancy "
         "and no vorticity (a velocity-units probe)",
+    )
+    parser.add_argument(
+        "--scene",
+        action="store_true",
+        help="also add a camera (64 × 96 pixels, 35 mm) and save the scene as OUTDIR/fire.blend "
+        "(the Blender add-on's tests render its cache through that camera)",
     )
     return parser.parse_args(argv)
 
@@ -111,6 +117,22 @@ def configure_domain(domain: bpy.types.Object, args: argparse.Namespace) -> None
     settings.cache_frame_end = args.frames
 
 
+def add_camera() -> bpy.types.Object:
+    """A camera three metres off, looking at the domain's lower half; a tall 64 × 96 image (the
+    sensor width then spans its height: Blender's Auto sensor fit)."""
+    data = bpy.data.cameras.new("Camera")
+    data.lens = 35.0
+    camera = bpy.data.objects.new("Camera", data)
+    bpy.context.scene.collection.objects.link(camera)
+    camera.location = (3.2, -4.1, 1.6)
+    camera.rotation_euler = (1.45, 0.0, 0.66)
+    scene = bpy.context.scene
+    scene.camera = camera
+    scene.render.resolution_x, scene.render.resolution_y = 64, 96
+    scene.render.resolution_percentage = 100
+    return camera
+
+
 def bake(domain: bpy.types.Object, frames: int) -> None:
     scene = bpy.context.scene
     scene.frame_start = 1
@@ -132,7 +154,11 @@ def main() -> None:
     configure_domain(domain, args)
     if args.initial_velocity is not None:
         probe_velocity(flow, domain, args.initial_velocity)
+    if args.scene:
+        add_camera()
     bake(domain, args.frames)
+    if args.scene:
+        bpy.ops.wm.save_as_mainfile(filepath=str((args.outdir / "fire.blend").resolve()))
     written = sorted(args.outdir.rglob("*.vdb"))
     print(f"baked {len(written)} .vdb files under {args.outdir}")
     for path in written:

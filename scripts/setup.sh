@@ -39,6 +39,20 @@ if ! env -u PYTHONPATH /usr/bin/python3 -c "import pyopenvdb" >/dev/null 2>&1; t
     fi
 fi
 
+# Blender for the add-on's tests (tests/blender): only when they are asked for
+# (INCANDESCENT_SETUP_BLENDER=1, which scripts/test.sh sets unless run with -m "not blender").
+if [ "${INCANDESCENT_SETUP_BLENDER:-0}" = 1 ] && ! command -v blender >/dev/null; then
+    if command -v apt-get >/dev/null; then
+        sudo=""; [ "$(id -u)" -eq 0 ] || sudo="sudo"
+        echo "setup: installing blender (the Blender add-on's tests run in real Blender)"
+        $sudo apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends \
+            blender >/dev/null
+    else
+        echo "setup: warning: no apt-get; install Blender >= 3.4 for tests/blender" >&2
+    fi
+fi
+
 python=${PYTHON:-python3}
 
 # pidng (the camera extra's DNG writer) is published only as source with a C extension: building

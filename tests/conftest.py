@@ -13,7 +13,7 @@ from _backends import backend_param
 #: modules, as ``python scripts/NAME.py`` runs them.
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
 #: Generators of test data, run by hand (they need the OS's pyopenvdb), not tests or doctests.
-collect_ignore_glob = ["data/*"]
+collect_ignore_glob = ["data/*", "blender/blender_session.py"]  # the latter runs inside Blender
 
 
 @pytest.fixture(params=[backend_param("cpu"), backend_param("cuda")])

@@ -44,7 +44,7 @@ FLOORS: tuple[tuple[str, ...], ...] = (
     ("renderer",),
     # products over the renderer: scene files → Volume and settings, sequences, the public API,
     # saving images, a camera's raw exposure, temperature from raw images, gradients of renders
-    ("config", "animation", "api", "output", "photograph", "pyrometry", "inverse"),
+    ("config", "animation", "api", "output", "photograph", "pyrometry", "inverse", "dcc"),
     # frames as Dask tasks (through api and config)
     ("cluster",),
     # entry points: the benchmark, a fire's frames rendered (simulation over animation and

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _cli_errors import one_line_error
 from _mounts import skip_without_private_mounts
 from typer.testing import CliRunner
 
@@ -23,13 +24,7 @@ needs_openvdb = pytest.mark.skipif(openvdb.problem() is not None, reason=str(ope
 
 
 def _error(result, *fragments: str) -> str:
-    assert result.exit_code == 2, result.output
-    assert "Traceback" not in result.output
-    line = " ".join(result.output.split())
-    assert line.count("error:") == 1, result.output
-    for fragment in fragments:
-        assert fragment in line, line
-    return line
+    return one_line_error(result, *fragments)
 
 
 @pytest.fixture(scope="module")

@@ -321,11 +321,13 @@ def convert(o: Given) -> None:
     absorption in 1/m, emission scale, fractions), placed, y up; .vdb is written by OpenVDB."""
     from incandescent import api
     from incandescent.config.carry import carried
+    from incandescent.dcc import save_dcc_volume
     from incandescent.io.atomic import check_output
     from incandescent.io.output import VOLUME_OUTPUT_SUFFIXES, save_volume
 
     with _guarded():
         limits = _limits(o)
+        to = _dcc_target(o.for_target, o.output)
         check_output(o.output, o.overwrite, VOLUME_OUTPUT_SUFFIXES, "volume")
         _check_vdb_writer(o.output)
         scene = _scene(o.source, overrides(o))
@@ -333,11 +335,34 @@ def convert(o: Given) -> None:
         spec, velocity, left_out = carried(scene.volume, scene.emission.line_table, limits)
         volume = api.volume_from_section(spec, scene.remap(), limits, "dense", velocity=velocity)
         assert isinstance(volume, api.Volume)  # a dense read
-        written = save_volume(volume, o.output, overwrite=o.overwrite)
+        if to is None:
+            written = save_volume(volume, o.output, overwrite=o.overwrite)
+        else:
+            written = save_dcc_volume(volume, o.output, to, scene.emission.emission(), o.overwrite)
     say(f"converted {o.source} ({volume.shape[0]}×{volume.shape[1]}×{volume.shape[2]} voxels, "
         f"voxel {volume.voxel_size_m:g} m) to {written}")  # fmt: skip
     for note in left_out:
         say(f"left out: {note}")
+    if to is not None:
+        say(f"  for {to.name}: {to.up} up; grids {', '.join(_dcc_names(to, volume))} "
+            "(docs/blender.md: the one-line shader set-up)")  # fmt: skip
+
+
+def _dcc_target(name: str | None, output: Path):
+    """The ``--for`` target (None without one); it needs a ``.vdb`` output."""
+    if name is None:
+        return None
+    from incandescent.dcc import target
+
+    to = target(name)
+    if output.suffix.lower() != ".vdb":
+        raise ValueError(f"--for {name}: writes .vdb files; got output {output}")
+    return to
+
+
+def _dcc_names(to, volume) -> list[str]:
+    names = [to.density, to.temperature, to.flame, to.emission]
+    return names + ([to.velocity] if volume.velocity_m_s is not None else [])
 
 
 def _check_vdb_writer(output: Path) -> None:
@@ -420,7 +445,9 @@ def simulate(o: Given) -> None:
             settings = _fire_settings(o, changes | {"seed": o.seed}, "--seed")
         view = o.render_to and fire_video.FireRender(o.render_to, o.width, o.height, o.exposure,
                                                      o.workers, o.scheduler)  # fmt: skip
+        to = _dcc_target(o.for_target, Path("frame.vdb"))
         with _simulation_progress(o.frames) as on_frame:
+            on_frame = on_frame if to is None else _also_for(to, o.output, on_frame, limits)
             fire_video.simulate_to(settings, o.resolution, o.frames, o.output, view,
                                    resolve_backend(o.backend), "." + o.frame_format.lstrip("."),
                                    o.overwrite, on_frame, limits)  # fmt: skip
@@ -445,6 +472,20 @@ def _fire_settings(o: Given, changes: dict, source: str | None):
         raise ValueError(f"--pool must be D:Q[:FUEL], D in m and Q in kW > 0; got {o.pool!r}")
     fuel = parts[2] if len(parts) == 3 else "methane"
     return pool.pool_fire(diameter, heat, fuel, changes, source)
+
+
+def _also_for(to, out_dir: Path, on_frame: Callable, limits) -> Callable:
+    """``on_frame`` that first writes each frame for ``to`` into ``out_dir/TARGET/``."""
+    from incandescent.dcc import convert_file
+
+    folder = out_dir / to.name
+
+    def both(report) -> None:
+        folder.mkdir(parents=True, exist_ok=True)
+        convert_file(report.path, folder / f"{report.path.stem}.vdb", to, limits, overwrite=True)
+        on_frame(report)
+
+    return both
 
 
 @contextlib.contextmanager

@@ -126,6 +126,18 @@ def _species(text: str, flag: str) -> dict[str, float | str]:
     return out
 
 
+def _options(text: str, flag: str) -> dict[str, float]:
+    """``ignition=1.2,max_temp=2.5`` → {"ignition": 1.2, "max_temp": 2.5}."""
+    out: dict[str, float] = {}
+    for item in filter(None, (part.strip() for part in text.split(","))):
+        name, sep, value = item.partition("=")
+        try:
+            out[name] = float(value) if sep and name else float("x")
+        except ValueError:
+            raise fail(f"{flag} entries must be NAME=NUMBER; got {item!r}") from None
+    return out
+
+
 def integrator_name(name: str | None, brightness: str | None) -> str | None:
     """``--integrator NAME``, or ``--brightness physical|paper`` read as one (None: neither)."""
     from incandescent.config.legacy import BRIGHTNESS_INTEGRATORS
@@ -211,6 +223,9 @@ VOLUME = (
          "volume.grids.temperature"),
     Flag("preset", str, "Source preset: blender | houdini | embergen | openfoam.",
          "volume.preset"),
+    Flag("preset_options", str, "The preset's options NAME=NUMBER, comma-separated (e.g. "
+         "ignition=1.2,max_temp=2.5: a Blender domain's Flame Ignition and Maximum Temperature).",
+         "volume.preset_options", _options),
     Flag("up_axis", str, "The source's up axis: y | z [preset's, else y].", "volume.up_axis"),
     AXES,
     Flag("resolution", int, "Voxels along the longest side of a VTK/OpenFOAM mesh resampled "
@@ -260,7 +275,15 @@ CAMERA = (
     Flag("target", str, "Point looked at, X,Y,Z in m [centre of the gas].", "camera.target",
          _vector),
     Flag("fov", float, f"Vertical field of view in degrees [{CAMERA_FOV:g}].", "camera.fov_deg"),
+    Flag("up", str, "Camera up direction X,Y,Z (its roll) [0,1,0].", "camera.up", _vector),
+    Flag("projection", str, "perspective | orthographic [perspective].", "camera.projection"),
+    Flag("ortho_height", float, "Height of an orthographic view in m [1].",
+         "camera.ortho_height_m"),
 )
+FOR_TARGET = Flag("for_target", str, "Write the .vdb for an application: blender (z up, "
+                  "density, temperature K, flame, velocity, color) | houdini (y up, vel, "
+                  "emission); color/emission is our emission baked (linear Rec.709).",
+                  decls=("--for",))
 WIDTH = Flag("width", int, f"Image width in pixels [{RS.width}].", "render.width")
 HEIGHT = Flag("height", int, f"Image height in pixels [{RS.height}].", "render.height")
 FPS = Flag("fps", float, f"Frames per second, for the shutter [{RS.fps:g}].", "render.fps")
@@ -522,6 +545,8 @@ CONVERT = (
     Flag("output", Path, "Output: .npz (dense, placed) or .vdb (sparse).", default=...,
          argument=True),
     VOLUME,
+    FOR_TARGET,
+    EMITTERS,
     OVERWRITE.but(key=None, default=False, help="Replace an existing output."),
     LIMITS[0],
 )
@@ -558,6 +583,8 @@ SIMULATE = (
          decls=("--settings",)),
     Flag("seed", int, "Seed of the sources' turbulence [preset's: 0]."),
     Flag("frame_format", str, "Frame files: npz | vdb.", default="npz", decls=("--format",)),
+    FOR_TARGET.but(help="Also write each frame for an application, into OUTPUT/TARGET/: "
+                   "blender | houdini (needs --format vdb; see convert --for)."),
     BACKEND.but(default="auto", help=BACKEND_CHOICES + "."),
     Flag("render_to", Path, "Also render the frames to this .mp4/.gif/folder.",
          decls=("--render",)),

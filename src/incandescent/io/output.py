@@ -87,6 +87,34 @@ def _active_voxels(values: np.ndarray) -> int:
     return int(np.count_nonzero(different.any(axis=-1) if different.ndim == 4 else different))
 
 
+def save_vdb_grids(
+    grids: dict[str, np.ndarray],
+    path: str | Path,
+    voxel_size_m: float,
+    origin_m,
+    metadata: dict[str, dict[str, str]],
+    overwrite: bool = False,
+) -> Path:
+    """Write ``grids`` (name → float32 (nx, ny, nz) or (nx, ny, nz, 3)) as a sparse ``.vdb``
+    through OpenVDB: ``origin_m`` the corner of voxel (0, 0, 0), cubic voxels, ``metadata`` per
+    grid. Atomic, read back by OpenVDB before it replaces anything; refuses to overwrite unless
+    asked."""
+    from incandescent.io import openvdb
+
+    path = check_output(path, overwrite, (".vdb",), "volume")
+    problem = openvdb.problem()
+    if problem is not None:
+        raise ValueError(f"cannot write {path}: {problem}")
+
+    def write_vdb(tmp: Path) -> None:
+        openvdb.write(tmp, grids, voxel_size_m, origin_m, metadata)
+
+    def read_back(tmp: Path) -> None:
+        _check_vdb(tmp, grids)
+
+    return atomic_write(path, write_vdb, overwrite=overwrite, verify=read_back)
+
+
 def save_volume(volume, path: str | Path, overwrite: bool = False) -> Path:
     """Write ``volume`` to ``.npz`` (dense, with ``voxel_size_m`` and ``origin_m``) or ``.vdb``
     (sparse: zeros inactive, pruned, written by OpenVDB so Blender and Houdini load it; a
@@ -95,24 +123,11 @@ def save_volume(volume, path: str | Path, overwrite: bool = False) -> Path:
     path = check_output(path, overwrite, VOLUME_OUTPUT_SUFFIXES, "volume")
     grids = volume_grids(volume)
     if path.suffix.lower() == ".vdb":
-        from incandescent.io import openvdb
-
         meta = {
             name: {"unit": _UNITS.get(name, "fraction"), "written_by": "incandescent", "up": "y"}
             for name in grids
         }
-
-        problem = openvdb.problem()
-        if problem is not None:
-            raise ValueError(f"cannot write {path}: {problem}")
-
-        def write_vdb(tmp: Path) -> None:
-            openvdb.write(tmp, grids, volume.voxel_size_m, volume.origin_m, meta)
-
-        def read_back(tmp: Path) -> None:
-            _check_vdb(tmp, grids)
-
-        return atomic_write(path, write_vdb, overwrite=overwrite, verify=read_back)
+        return save_vdb_grids(grids, path, volume.voxel_size_m, volume.origin_m, meta, overwrite)
 
     def write_npz(tmp: Path) -> None:
         with open(tmp, "xb") as handle:
