@@ -109,6 +109,18 @@ def render():
     }
 
 
+@step("animation")
+def animation():
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = JOB["frame"] - 1, JOB["frame"]
+    activate(bpy.data.objects["FireDomain"])
+    outcome = operator_error(bpy.ops.incandescent.render_animation)
+    import incandescent_blender as addon
+
+    folder = addon.output_folder()
+    return outcome | {"exrs": sorted(p.name for p in folder.glob("FireDomain_*.exr"))}
+
+
 def cycles_settings(scene):
     scene.render.engine = "CYCLES"
     scene.cycles.device = "CPU"

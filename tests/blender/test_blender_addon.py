@@ -153,6 +153,12 @@ def test_render_operator_equals_incandescent_render_preset_blender(session, tmp_
     assert any(path.endswith(Path(render["exr"]).name) for path in render["images"])
 
 
+def test_render_animation_renders_each_frame_of_the_range(session):
+    animation = _step(session, "animation")
+    assert animation["result"] == ["FINISHED"]
+    assert animation["exrs"] == [f"FireDomain_{FRAME - 1:04d}.exr", f"FireDomain_{FRAME:04d}.exr"]
+
+
 def test_a_for_blender_vdb_loads_upright_with_the_principled_volume_grids(session):
     upright = _step(session, "upright")
     size = upright["size"]
