@@ -153,12 +153,18 @@ def cycles():
     cycles_settings(scene)
     scene.render.filepath = str(OUT / "cycles.exr")
     bpy.ops.render.render(write_still=True)
+    activate(baked)
+    again = operator_error(bpy.ops.incandescent.render)
+    import incandescent_blender as addon
+
+    rendered = addon.output_folder() / f"FireDomain_emission_{JOB['frame']:04d}.exr"
     material = baked.data.materials[0] if baked else None
     return outcome | {
         "exr": str(OUT / "cycles.exr"),
         "domain_hidden": domain.hide_render,
         "grids": [g.name for g in baked.data.grids] if baked else None,
         "material_nodes": [n.bl_idname for n in material.node_tree.nodes] if material else None,
+        "baked_render": again | {"exr": str(rendered)},
     }
 
 

@@ -171,11 +171,13 @@ def source_of(obj, frame: int):
         raise IncandescentError(
             f"volume {obj.name!r}: its file {path} does not exist at frame {frame}"
         )
-    preset = obj.incandescent_preset
+    preset, names = obj.incandescent_preset, {grid.name for grid in volume.grids}
     if preset == "AUTO":
-        names = {grid.name for grid in volume.grids}
         preset = "blender" if "flame" in names and "color" not in names else "NONE"
-    return path, volume_frame_matrix(obj), _preset_arguments(preset, FLAME_DEFAULTS)
+    arguments = _preset_arguments(preset, FLAME_DEFAULTS)
+    if preset == "NONE" and "color" in names and "density" in names:  # written --for blender
+        arguments += ["--absorption-grid", "density"]
+    return path, volume_frame_matrix(obj), arguments
 
 
 def volume_frame_matrix(obj):

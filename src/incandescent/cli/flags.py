@@ -221,6 +221,8 @@ VOLUME = (
          "volume.voxel_size_m"),
     Flag("temperature_grid", str, "Name of the temperature grid [temperature, heat, temp or T].",
          "volume.grids.temperature"),
+    Flag("absorption_grid", str, "Name of the absorption grid, κ in 1/m [absorption] (a --for "
+         "blender file's: density).", "volume.grids.absorption"),
     Flag("preset", str, "Source preset: blender | houdini | embergen | openfoam.",
          "volume.preset"),
     Flag("preset_options", str, "The preset's options NAME=NUMBER, comma-separated (e.g. "
