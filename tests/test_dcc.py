@@ -130,3 +130,5 @@ def test_simulate_for_blender_writes_each_frame_for_blender(tmp_path):
     grids = _read(frames[-1])
     assert {"density", "temperature", "flame", "velocity", "color"} <= set(grids)
     assert grids["color"]["max"] > 0  # the candle's frame emits
+    info = runner.invoke(app, ["info", str(frames[-1])])
+    assert "render it with --up-axis z --absorption-grid density" in " ".join(info.output.split())

@@ -356,6 +356,12 @@ MANTAFLOW_GRIDS = frozenset({"density", "flame", "velocity"})
 def file_warnings(path: str | Path, grids: list[GridSummary]) -> list[str]:
     """What ``info`` should say about the file as a whole (e.g. which preset fits it)."""
     names = {g.name for g in grids}
+    if {"color", "density", "temperature"} <= names and "flame" in names:  # convert --for blender
+        return [
+            f"{Path(path).name} looks like a VDB written for Blender (convert --for blender: "
+            "temperature in K, density = κ in 1/m, z up): render it with --up-axis z "
+            "--absorption-grid density"
+        ]
     if MANTAFLOW_GRIDS <= names and names & {"heat", "temperature"}:
         return [
             f"{Path(path).name} looks like a Blender Mantaflow cache (density, flame, heat or "
