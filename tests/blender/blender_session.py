@@ -189,4 +189,14 @@ def upright():
     }
 
 
+@step("volume_bake")
+def volume_bake():
+    """Bake physical emission on a plain volume object (the --for blender campfire)."""
+    obj = bpy.data.objects["upright"]
+    activate(obj)
+    outcome = operator_error(bpy.ops.incandescent.bake_emission)
+    baked = bpy.data.objects.get("upright emission")
+    return outcome | {"file": baked.data.filepath if baked else None}
+
+
 (OUT / "session.json").write_text(json.dumps(RESULT, indent=1, default=str))

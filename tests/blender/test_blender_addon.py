@@ -168,6 +168,13 @@ def test_a_for_blender_vdb_loads_upright_with_the_principled_volume_grids(sessio
     assert upright["density_attribute"] in grids and upright["temperature_attribute"] in grids
 
 
+def test_bake_on_a_volume_object_writes_beside_its_file(session):
+    bake = _step(session, "volume_bake")
+    assert bake["result"] == ["FINISHED"], bake
+    assert bake["file"].endswith("incandescent/emission_campfire_blender.vdb")
+    assert Path(bake["file"]).is_file()
+
+
 def test_the_baked_object_renders_as_the_cache_it_came_from(session):
     """ "Render with incandescent" on the baked volume object (kelvin, density = κ, written z up
     with Blender's half-voxel placement) gives the domain's render: the whole chain — flame →

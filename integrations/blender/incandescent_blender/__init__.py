@@ -326,7 +326,7 @@ def bake_frames(obj, scene):
     for frame in frames:
         source, _, preset = source_of(obj, frame)
         out = source.parent.parent / "incandescent" / f"emission_{frame:04d}.vdb" if settings else \
-            source.parent / "incandescent" / f"{source.stem}_emission.vdb"  # fmt: skip
+            source.parent / "incandescent" / f"emission_{source.stem}.vdb"  # fmt: skip
         out.parent.mkdir(parents=True, exist_ok=True)
         run(["convert", str(source), str(out), *preset, "--for", "blender", "--overwrite"])
         written.append((frame, out))
