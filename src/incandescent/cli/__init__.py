@@ -559,6 +559,58 @@ def pyrometry(o: Given) -> None:
 
 
 @app.command()
+@command(flags.RECONSTRUCT)
+def reconstruct(o: Given) -> None:
+    """Reconstruct a flame's temperature from calibrated views (emission tomography)."""
+    from incandescent.inverse import files
+    from incandescent.inverse.reconstruct import Settings
+    from incandescent.inverse.reconstruct import reconstruct as solve
+
+    checkpoint = files.checkpoint_path(o.output)
+    with _guarded():
+        from incandescent.io.atomic import check_output
+
+        check_output(o.output, o.overwrite, (".npz", ".vdb"), "volume")
+        views = files.read_views(o.views, o.cameras)
+        grid = files.grid_from(o.like, o.bounds, o.size, o.absorption)
+        for view in views:
+            view.check_sees(grid)
+        settings = Settings(iterations=o.iterations, levels=o.levels, tv_weight=o.tv)
+        if o.resume and not checkpoint.exists():
+            raise ValueError(f"--resume: no checkpoint {checkpoint} to resume from")
+        try:
+            result = solve(views, grid, settings, o.backend, _loss_line(), checkpoint, o.resume)
+        except KeyboardInterrupt:
+            _interrupted(checkpoint)
+        written = files.write_result(result, views, o.output, o.overwrite)
+        checkpoint.unlink(missing_ok=True)
+    worst = max(e["relative_l1"] for e in files.view_errors(result, views))
+    say(f"loss {result.losses[0]:.3g} → {result.losses[-1]:.3g} in {len(result.losses)} "
+        f"evaluations; views within {100 * worst:.2f} % (L1, worst view)")  # fmt: skip
+    for path in written:
+        say(f"  wrote {path}")
+
+
+def _interrupted(checkpoint: Path) -> None:
+    """Ctrl-C during a reconstruction: where it can resume from; exit status 130."""
+    if checkpoint.exists():
+        say(f"interrupted: {checkpoint} holds the last finished round; run again with --resume")
+    else:
+        say("interrupted before the first round finished: no checkpoint to resume from")
+    raise typer.Exit(code=EXIT_INTERRUPTED)
+
+
+def _loss_line() -> Callable[[int, int, float], None]:
+    """The progress of a reconstruction: a line every 10 evaluations (level, evaluation, loss)."""
+
+    def report(level: int, evaluation: int, loss: float) -> None:
+        if evaluation == 1 or evaluation % 10 == 0:
+            say(f"grid 1/{2**level} evaluation {evaluation}: loss {loss:.4g}")
+
+    return report
+
+
+@app.command()
 @command(flags.BENCH)
 def bench(o: Given) -> None:
     """Benchmark the backends on named synthetic scenes (samples/s, ms/frame)."""

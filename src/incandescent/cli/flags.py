@@ -613,4 +613,25 @@ BENCH = (
     Flag("cold", bool, "Also time frames that each render a new volume (cold).", default=False,
          decls=("--cold",)),
 )
+RECONSTRUCT = (
+    Flag("views", list[Path], "EXR radiance views (absolute linear RGB, as render writes them).",
+         default=..., argument=True),
+    Flag("cameras", Path, "Their cameras: a .toml ([[camera]] tables) or .json list, one per "
+         "view in order (eye, target, up, fov_deg…; width/height: the film the view must have).",
+         default=..., decls=("--cameras", "-c")),
+    Flag("output", Path, "The temperature volume: .npz or .vdb (beside it NAME.residual-K.exr "
+         "per view, NAME.loss.json, and while running NAME.checkpoint.npz).", default=...,
+         decls=("--output", "-o")),
+    Flag("like", Path, "A volume file whose grid, box and absorption to use (its T ignored)."),
+    Flag("bounds", str, "The box x0,y0,z0:x1,y1,z1 in m (without --like)."),
+    SIZE.but(default=32, help="Voxels along the box's longest side (without --like)."),
+    Flag("absorption", float, "Constant absorption κ in 1/m (without --like).", default=10.0),
+    Flag("iterations", int, "L-BFGS-B iterations per level.", default=100),
+    Flag("levels", int, "Coarse-to-fine levels (1: the grid only; 3: 1/4, 1/2, 1).", default=3),
+    Flag("tv", float, "Total-variation weight, relative to the data term.", default=1e-3),
+    Flag("resume", bool, "Continue from the checkpoint beside the output.", default=False,
+         decls=("--resume",)),
+    BACKEND.but(key=None, default="cpu", help="cpu | cuda | reference (float64)."),
+    OVERWRITE.but(key=None, default=False, help="Replace existing outputs."),
+)
 # fmt: on
