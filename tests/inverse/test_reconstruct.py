@@ -60,7 +60,7 @@ def test_a_resumed_run_equals_an_uninterrupted_one(tmp_path):
     left: the same volume, bit for bit, and the same losses (on the float64 reference; a Dr.Jit
     backend's scatter-adds sum in no fixed order, so its runs differ in the last bits)."""
     truth = _flame(8)
-    views = _views(truth, count=3, pixels=10, backend="reference")
+    views = _views(truth, count=2, pixels=8, backend="reference")
     settings = Settings(iterations=4, levels=2, round=2)
     whole = reconstruct(views, truth, settings, "reference", checkpoint=tmp_path / "a.npz")
 
@@ -118,3 +118,24 @@ def test_a_camera_that_does_not_see_the_volume_is_named():
     with pytest.raises(ValueError, match=r"side.exr: its camera at .* does not see the volume"):
         view.check_sees(truth)
     _views(truth, count=1, pixels=8)[0].check_sees(truth)  # one that does: no error
+
+
+def _axisymmetric(n: int = 16) -> inc.Volume:
+    """T(r, y) = 300 K + 1500 K·e^(−(r/0.25)²)·e^(−((y − 0.4)/0.35)²) about the vertical axis
+    (box units, y from 0 at the bottom), κ = 6/m · (r < 0.45)."""
+    i = (np.indices((n, n, n)) + 0.5) / n
+    r = np.hypot(i[0] - 0.5, i[2] - 0.5)
+    temp = 300 + 1500 * np.exp(-((r / 0.25) ** 2)) * np.exp(-(((i[1] - 0.4) / 0.35) ** 2))
+    return inc.Volume.from_arrays(temp, absorption=6.0 * (r < 0.45), voxel_size_m=0.1 / n)
+
+
+def test_one_view_recovers_an_axisymmetric_flame():
+    """The Abel case: an analytic axisymmetric flame (16³, a radial profile per layer) from
+    one side view of 32², solved as T(r, y) on 13 × 16 nodes: the RMSE over the voxels above
+    1000 K under 45 K (measured 30 K); solved voxel by voxel from the same view it is 162 K."""
+    truth = _axisymmetric()
+    settings = inc.RenderSettings(width=32, height=32, jitter=False)
+    camera = inc.Camera(eye=(0.0, 0.0, 0.3), target=(0.0, 0.0, 0.0), fov_deg=25.0)
+    view = View(inc.render(truth, camera, settings, "cpu").xyz, camera, settings, "side")
+    radial = reconstruct([view], truth, Settings(iterations=40, levels=2, axisymmetric=True))
+    assert _rmse(radial.volume, truth) < 45

@@ -575,7 +575,8 @@ def reconstruct(o: Given) -> None:
         grid = files.grid_from(o.like, o.bounds, o.size, o.absorption)
         for view in views:
             view.check_sees(grid)
-        settings = Settings(iterations=o.iterations, levels=o.levels, tv_weight=o.tv)
+        settings = Settings(iterations=o.iterations, levels=o.levels, tv_weight=o.tv,
+                            axisymmetric=o.axisymmetric)  # fmt: skip
         if o.resume and not checkpoint.exists():
             raise ValueError(f"--resume: no checkpoint {checkpoint} to resume from")
         try:

@@ -105,7 +105,9 @@ class Settings:
     coarser levels get the same), the levels of coarse to fine (1: the given grid only), the
     TV weight λ (relative to the data term, per 1000 K of mean gradient per voxel), T's bounds
     (K), L-BFGS's memory, the iterations per round (a checkpoint after each) and the power p
-    of the unknown v = (Y_bb(T)/Y_bb(2000 K))^p (0: its log)."""
+    of the unknown v = (Y_bb(T)/Y_bb(2000 K))^p (0: its log). ``axisymmetric``: T is a radial
+    profile about the vertical (y) axis through the box's centre, T(r, y) (``Radial``): one view
+    suffices (the Abel case)."""
 
     iterations: int = 100
     levels: int = 3
@@ -116,6 +118,7 @@ class Settings:
     memory: int = 20
     round: int = 25
     power: float = 0.5
+    axisymmetric: bool = False
 
     def __post_init__(self) -> None:
         for name in ("iterations", "levels", "memory", "round"):
@@ -200,8 +203,9 @@ def level_volume(start, level: int):
 
 
 def upsampled(values: NDArray, shape: tuple[int, ...], factor: int) -> NDArray:
-    """A coarse grid (voxels ``factor`` times larger, same corner) sampled trilinearly at the
-    centres of a finer grid of ``shape``."""
+    """A coarse grid (voxels ``factor`` times larger, same corner) sampled (bi/tri)linearly at
+    the centres of a finer grid of ``shape`` (a radial profile's nodes: near enough, as a
+    start)."""
     from scipy.ndimage import map_coordinates
 
     axes = [(np.arange(n) + 0.5) / factor - 0.5 for n in shape]
@@ -283,6 +287,40 @@ def uniform_start(views: Sequence[View], grid, settings: Settings, backend: str)
     return 0.5 * (lo + hi)
 
 
+class Radial:
+    """T(r, y) about the vertical axis through the box's centre, on nodes r_j = j·Δ (Δ: the
+    voxel side) per voxel layer y: each voxel's v is the linear interpolation in r of its
+    layer's profile (``matrix``, voxels × nodes), so the gradient of a profile node is the sum
+    of its voxels' gradients with their weights (the transpose)."""
+
+    def __init__(self, shape: tuple[int, int, int]) -> None:
+        from scipy.sparse import csr_matrix
+
+        nx, ny, nz = shape
+        x, z = (np.arange(nx) + 0.5 - nx / 2), (np.arange(nz) + 0.5 - nz / 2)
+        r = np.hypot(x[:, None], z[None, :])  # in voxels
+        self.nodes = int(np.ceil(r.max())) + 1
+        j = np.minimum(np.floor(r).astype(int), self.nodes - 2)
+        f = np.clip(r - j, 0.0, 1.0)
+        voxel = np.arange(nx * ny * nz).reshape(shape)
+        rows, cols, weights = [], [], []
+        for node, weight in ((j, 1.0 - f), (j + 1, f)):
+            for y in range(ny):
+                rows.append(voxel[:, y, :].ravel())
+                cols.append((node * ny + y).ravel())
+                weights.append(weight.ravel())
+        self.shape = (self.nodes, ny)
+        where = (np.concatenate(rows), np.concatenate(cols))
+        size = (voxel.size, self.nodes * ny)
+        self.matrix = csr_matrix((np.concatenate(weights), where), shape=size)
+        self.voxels = shape
+
+
+def _unknowns(grid, settings: Settings):
+    """The map from the unknowns to the voxels: None (one per voxel) or a :class:`Radial`."""
+    return Radial(grid.shape) if settings.axisymmetric else None
+
+
 def _luminance(image) -> float:
     """An image's summed Y (cd/m²)."""
     assert image.xyz is not None, "emission–absorption renders radiance"
@@ -295,8 +333,14 @@ class _Problem:
     def __init__(self, views, grid, settings: Settings, backend: str, table, state, progress):
         self.views, self.grid, self.settings, self.backend = views, grid, settings, backend
         self.table, self.state, self.progress = table, state, progress
+        self.map = _unknowns(grid, settings)
 
     def __call__(self, flat: NDArray) -> tuple[float, NDArray]:
+        loss, grad = self.voxels(flat if self.map is None else self.map.matrix @ flat)
+        return loss, grad if self.map is None else self.map.matrix.T @ grad
+
+    def voxels(self, flat: NDArray) -> tuple[float, NDArray]:
+        """Loss and gradient in each voxel's v."""
         temp, dtemp = self.table.temperature(flat.reshape(self.grid.shape))
         volume = self.grid.replace(temperature_K=temp.astype(np.float32))
         loss, grad, _ = data_term(volume, self.views, self.backend)
@@ -349,7 +393,8 @@ def reconstruct(
         if state.level == 0:
             break
         finer = level_volume(start, state.level - 1)
-        state = State(state.level - 1, 0, upsampled(state.v, finer.shape, 2), state.losses)
+        shape = _unknown_shape(finer, settings)
+        state = State(state.level - 1, 0, upsampled(state.v, shape, 2), state.losses)
     return _result(views, start, settings, table, state, backend)
 
 
@@ -360,12 +405,19 @@ def _initial(views, start, settings, backend, table, checkpoint, resume, fingerp
     level = min(settings.levels - 1, int(np.log2(max(min(start.shape) // 2, 1))))
     grid = level_volume(start, level)
     temp = uniform_start(views, grid, settings, backend)
-    return State(level, 0, np.full(grid.shape, float(table.of(temp))))
+    return State(level, 0, np.full(_unknown_shape(grid, settings), float(table.of(temp))))
+
+
+def _unknown_shape(grid, settings: Settings) -> tuple[int, ...]:
+    unknowns = _unknowns(grid, settings)
+    return grid.shape if unknowns is None else unknowns.shape
 
 
 def _result(views, start, settings, table, state, backend) -> Result:
-    temp, _ = table.temperature(state.v)
-    temp = np.where(state.v <= table.v[0] + 1e-9, settings.floor_K, temp)  # invisible: ambient
+    unknowns = _unknowns(start, settings)
+    v = state.v if unknowns is None else (unknowns.matrix @ state.v.ravel()).reshape(start.shape)
+    temp, _ = table.temperature(v)
+    temp = np.where(v <= table.v[0] + 1e-9, settings.floor_K, temp)  # invisible: ambient
     volume = start.replace(temperature_K=temp.astype(np.float32))
     rendered = [np.asarray(render(volume, v.camera, v.settings, backend).xyz) for v in views]
     residuals = [image - view.xyz for image, view in zip(rendered, views, strict=True)]

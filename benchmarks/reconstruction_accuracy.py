@@ -1,0 +1,146 @@
+"""Accuracy of emission tomography (issue 30): a held-out fire — a frame of our fire simulator
+(the ``fire`` scene: Nguyen et al. 2002's campfire, 32×48×32, with its soot κ grid), padded to
+a cube and resampled to N³, scaled to a lab flame of 0.2 m (κ as simulated, so its optical
+depth across is ~2) — seen by V views of P² on a ring around its axis (10° above the
+horizon), reconstructed from a uniform start with its κ known (``inverse.reconstruct``).
+
+Reported per case: the RMSE of T over the voxels above 1000 K, the re-rendered views' error
+(relative L1 and L2 over all views, against the noise-free truth and against the inputs), the
+time and the peak resident memory (VmHWM). Cases: V views, 4 views, and V views with 1 %
+Gaussian noise per pixel (σ = 1 % of each pixel's value), or the ones named.
+
+    python benchmarks/reconstruction_accuracy.py                 # 64³, 12 views of 128²
+    python benchmarks/reconstruction_accuracy.py --size 32 --pixels 64 --out r.json
+
+Each case runs in its own process (its own peak memory). On 2 shared cores the full case takes
+long (each evaluation renders and differentiates every view once); say whether the machine was
+shared when quoting a time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+#: The flame's box side, m.
+SIDE_M = 0.2
+
+
+def fire(n: int):
+    """The simulated campfire padded to a cube, resampled to n³ voxels over SIDE_M."""
+    from scipy.ndimage import zoom
+
+    import incandescent as inc
+    from incandescent.api import demo_volume
+
+    frame = demo_volume("fire", 48)
+    side = max(frame.shape)
+    grids = []
+    for grid, ambient in ((frame.temperature_K, 300.0), (frame.absorption_per_m, 0.0)):
+        pad = [((side - s) // 2, side - s - (side - s) // 2) for s in grid.shape]
+        cube = np.pad(np.asarray(grid, np.float64), pad, constant_values=ambient)
+        grids.append(np.clip(zoom(cube, n / side, order=1), ambient, None))
+    half = SIDE_M / 2
+    return inc.Volume.from_arrays(grids[0], absorption=grids[1], voxel_size_m=SIDE_M / n,
+                                  origin_m=(-half, -half, -half))  # fmt: skip
+
+
+def ring(count: int, pixels: int):
+    """``count`` cameras on a ring of radius 2.5·SIDE_M, 10° above the horizon."""
+    import incandescent as inc
+
+    settings = inc.RenderSettings(width=pixels, height=pixels, jitter=False)
+    cameras = []
+    for k in range(count):
+        a, up = 2 * np.pi * k / count, np.radians(10.0)
+        r = 2.5 * SIDE_M
+        eye = (r * np.cos(up) * np.sin(a), r * np.sin(up), r * np.cos(up) * np.cos(a))
+        cameras.append(inc.Camera(eye=eye, target=(0.0, 0.0, 0.0), fov_deg=30.0))
+    return cameras, settings
+
+
+def case(
+    n: int, pixels: int, count: int, noise: float, iterations: int, levels: int, tv: float
+) -> dict:
+    """One reconstruction: its accuracy, time and memory."""
+    import time
+
+    import incandescent as inc
+    from incandescent.inverse.reconstruct import Settings, View, reconstruct
+
+    truth = fire(n)
+    cameras, settings = ring(count, pixels)
+    rng = np.random.default_rng(30)
+    clean = [np.asarray(inc.render(truth, c, settings, "cpu").xyz, np.float64) for c in cameras]
+    noisy = [np.maximum(x * (1 + noise * rng.standard_normal(x.shape)), 0) for x in clean]
+    views = [
+        View(x, c, settings, f"view {k}")
+        for k, (x, c) in enumerate(zip(noisy, cameras, strict=True))
+    ]
+    start = time.perf_counter()
+    result = reconstruct(views, truth, Settings(iterations=iterations, levels=levels, tv_weight=tv))
+    seconds = time.perf_counter() - start
+    hot = truth.temperature_K > 1000
+    error = (result.volume.temperature_K - truth.temperature_K)[hot]
+    rendered = result.rendered
+    peak = next(int(line.split()[1]) for line in open("/proc/self/status")
+                if line.startswith("VmHWM"))  # fmt: skip
+    return {
+        "size": n, "pixels": pixels, "views": count, "noise": noise,
+        "iterations_per_level": iterations, "levels": levels, "tv_weight": tv,
+        "hot_voxels": int(hot.sum()),
+        "rmse_hot_K": float(np.sqrt(np.mean(error**2))),
+        "mean_error_hot_K": float(np.mean(error)),
+        "views_l1_vs_truth": _relative(rendered, clean, 1),
+        "views_l2_vs_truth": _relative(rendered, clean, 2),
+        "views_l1_vs_inputs": _relative(rendered, noisy, 1),
+        "evaluations": len(result.losses),
+        "loss_first_last": [result.losses[0], result.losses[-1]],
+        "seconds": seconds, "peak_rss_MiB": peak / 1024,
+    }  # fmt: skip
+
+
+def _relative(rendered, target, order: int) -> float:
+    """Σ|rendered − target|^order / Σ|target|^order, to the 1/order, over all views."""
+    num = sum(float(np.sum(np.abs(r - t) ** order)) for r, t in zip(rendered, target, strict=True))
+    den = sum(float(np.sum(np.abs(t) ** order)) for t in target)
+    return (num / den) ** (1.0 / order)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=64)
+    parser.add_argument("--pixels", type=int, default=128)
+    parser.add_argument("--views", type=int, default=12)
+    parser.add_argument("--iterations", type=int, default=100, help="per level")
+    parser.add_argument("--levels", type=int, default=3)
+    parser.add_argument("--tv", type=float, default=1e-3, help="TV weight")
+    parser.add_argument("--cases", default="all,few,noisy", help="all, few (4 views), noisy")
+    parser.add_argument("--out", type=Path)
+    parser.add_argument("--child", nargs=7, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        n, px, count, noise, it, lv, tv = args.child
+        row = case(int(n), int(px), int(count), float(noise), int(it), int(lv), float(tv))
+        print(json.dumps(row))
+        return
+    plan = {"all": (args.views, 0.0), "few": (4, 0.0), "noisy": (args.views, 0.01)}
+    rows = []
+    for name in args.cases.split(","):
+        count, noise = plan[name]
+        cmd = [sys.executable, __file__, "--child", str(args.size), str(args.pixels), str(count),
+               str(noise), str(args.iterations), str(args.levels), str(args.tv)]  # fmt: skip
+        out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+        rows.append({"case": name, **json.loads(out.strip().splitlines()[-1])})
+        print(json.dumps(rows[-1]), flush=True)
+    if args.out:
+        args.out.write_text(json.dumps(rows, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
