@@ -39,7 +39,7 @@ def test_emission_grid_is_kappa_times_planck_xyz_in_rec709():
     volume = _volume()
     rgb = dcc_grids(volume, TARGETS["houdini"]).grids["emission"]
     expected = xyz_to_rgb(2.0 * blackbody_xyz(np.array([1800.0])), "srgb")[0]
-    np.testing.assert_allclose(rgb[1, 4, 2], expected, rtol=1e-5)
+    np.testing.assert_allclose(rgb[1, 4, 2], expected, rtol=1e-4)  # the renderer's table
     cold = np.ones(rgb.shape[:3], bool)
     cold[1, 4, 2] = False
     assert not rgb[cold].any()  # κ = 0 or T = 300 K (κ = 0 there): no emission
