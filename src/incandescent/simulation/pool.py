@@ -142,10 +142,11 @@ def dominant_hz(signal: np.ndarray, rate_hz: float, lowest_hz: float = 0.5) -> f
     freq = np.fft.rfftfreq(x.size, 1.0 / rate_hz)
     usable = np.nonzero(freq >= lowest_hz)[0]
     k = int(usable[np.argmax(power[usable])])
+    peak = float(k)
     if 0 < k < power.size - 1:
         a, b, c = np.log(power[k - 1 : k + 2] + 1e-300)
-        k += 0.5 * (a - c) / (a - 2.0 * b + c) if a - 2.0 * b + c < 0 else 0.0
-    return float(k * rate_hz / x.size)
+        peak += 0.5 * (a - c) / (a - 2.0 * b + c) if a - 2.0 * b + c < 0 else 0.0
+    return peak * rate_hz / x.size
 
 
 def intermittency_height_m(present: np.ndarray, cell_m: float) -> float:
