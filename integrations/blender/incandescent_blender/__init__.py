@@ -22,7 +22,7 @@ bl_info = {
     "blender": (3, 4, 0),
     "location": "Properties › Object › incandescent",
     "description": "Physically based fire: render volumes and Mantaflow caches with incandescent, "
-    "bake its emission colours for Cycles and EEVEE",
+    "bake its emission colours for Cycles",
     "category": "Render",
 }
 
