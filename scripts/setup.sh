@@ -53,6 +53,21 @@ if [ "${INCANDESCENT_SETUP_BLENDER:-0}" = 1 ] && ! command -v blender >/dev/null
     fi
 fi
 
+# Chromium and its driver: the viewer's tests (`incandescent view`) run the page in a real
+# headless browser through Selenium and the system chromedriver (no browser download).
+if ! command -v chromium >/dev/null || ! command -v chromedriver >/dev/null; then
+    if command -v apt-get >/dev/null; then
+        sudo=""; [ "$(id -u)" -eq 0 ] || sudo="sudo"
+        echo "setup: installing chromium and chromium-driver (the viewer's browser tests)"
+        $sudo apt-get update -qq
+        DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq chromium chromium-driver \
+            >/dev/null || echo "setup: note: chromium not installed; the viewer's browser tests" \
+            "will be skipped" >&2
+    else
+        echo "setup: note: no chromium/chromedriver; the viewer's browser tests will be skipped" >&2
+    fi
+fi
+
 python=${PYTHON:-python3}
 
 # pidng (the camera extra's DNG writer) is published only as source with a C extension: building

@@ -48,8 +48,9 @@ FLOORS: tuple[tuple[str, ...], ...] = (
     # frames as Dask tasks (through api and config)
     ("cluster",),
     # entry points: the benchmark, a fire's frames rendered (simulation over animation and
-    # cluster), the typer app, the package's own namespace
-    ("benchmark", "fire_video", "cli", "__init__"),
+    # cluster), the interactive viewer (a web server over api and config), the typer app, the
+    # package's own namespace
+    ("benchmark", "fire_video", "viewer", "cli", "__init__"),
 )
 
 

@@ -30,7 +30,19 @@ __all__ = [
     "planck_radiance",
     "render",
     "simulate",
+    "view",
 ]
+
+
+def view(volume_or_path, **base):
+    """The interactive viewer inline in a notebook (``incandescent view`` in a cell): a
+    ``Volume`` or INPUT (a volume file, a sequence pattern, a scene file, a simulation folder);
+    ``base``: scene overrides by section, e.g. ``display={"tonemap": "reinhard"}``. Returns an
+    object Jupyter shows as an iframe of the running viewer (``.url``, ``.close()``)."""
+    from incandescent import viewer
+    from incandescent.cli.flags import command_line
+
+    return viewer.view(volume_or_path, command_line, **base)
 
 
 def __getattr__(name: str):

@@ -612,6 +612,32 @@ def _loss_line() -> Callable[[int, int, float], None]:
 
 
 @app.command()
+@command(flags.VIEW)
+def view(o: Given) -> None:
+    """Look at a fire interactively in the browser: orbit, expose, remap, scrub time, probe.
+
+    Serves the viewer on 127.0.0.1 (a random token in the URL guards every request) until
+    Ctrl-C; "copy command" and "save scene file" in the page reproduce its view with render.
+    """
+    from incandescent import viewer
+
+    with _guarded():
+        if o.host != viewer.LOOPBACK:
+            say(f"warning: --host {o.host}: other machines can reach the viewer (the token in "
+                "the URL still guards it; anyone with the URL sees your inputs)")  # fmt: skip
+        server = viewer.serve(o.source, overrides(o), o.backend, _limits(o), o.host, o.port,
+                              flags.command_line)  # fmt: skip
+        say(f"incandescent view: {server.url}")
+        say("  Ctrl-C stops it")
+        if not o.no_browser:
+            import webbrowser
+
+            webbrowser.open(server.url)
+        server.run()
+        raise KeyboardInterrupt  # uvicorn returns on Ctrl-C: the same exit as an interrupt
+
+
+@app.command()
 @command(flags.BENCH)
 def bench(o: Given) -> None:
     """Benchmark the backends on named synthetic scenes (samples/s, ms/frame)."""

@@ -600,6 +600,18 @@ SIMULATE = (
     OVERWRITE.but(default=False, decls=(), help="Start again even if OUTPUT holds another run."),
     LIMITS[0],
 )
+VIEW = (
+    Flag("source", str, "What render or animate takes: a volume file, a sequence ('cache/"
+         "fire_####.vdb' or a glob), a scene file (.toml, .json), or a folder written by "
+         "simulate; the options below set the first view.", default=..., argument=True),
+    Flag("port", int, "Port to listen on [a free one].", default=0),
+    Flag("host", str, "Address to listen on; anything but 127.0.0.1 lets other machines in "
+         "(the token still guards it).", default="127.0.0.1"),
+    Flag("no_browser", bool, "Print the URL only; do not open a browser.", default=False,
+         decls=("--no-browser",)),
+    FILM[:3], VOLUME, EMITTERS, LIGHTING[:5], LIGHTING[9], CAMERA, INTEGRATOR[1:3], DISPLAY,
+    BACKEND, LIMITS,
+)
 BENCH = (
     AS_JSON.but(help="Print the results as JSON."),
     Flag("scenes", str, "Comma-separated scenes: plume, sparse, soot.",
@@ -637,3 +649,65 @@ RECONSTRUCT = (
     OVERWRITE.but(key=None, default=False, help="Replace existing outputs."),
 )
 # fmt: on
+
+
+# --- scene overrides back to flags (the viewer's "copy command") ---------------------------
+
+
+def _shown(value: Any, flag: Flag) -> str:
+    """A scene value as ``flag``'s text, exact: floats by repr (they read back bit for bit)."""
+    if flag.parse is _vector:
+        return ",".join(repr(float(v)) for v in value)
+    if flag.parse is _sun:
+        (light,) = value
+        return ",".join(repr(float(v)) for v in (*light["direction"], light["illuminance_lux"]))
+    if flag.parse is _species:
+        return ",".join(
+            f"{k}={v!r}" if isinstance(v, float) else f"{k}={v}" for k, v in value.items()
+        )
+    if isinstance(value, (list, tuple)):  # LOW:HIGH, OPEN:CLOSE
+        return ":".join(repr(float(v)) for v in value)
+    return repr(value) if isinstance(value, float) else str(value)
+
+
+def _at(table: dict, key: str) -> Any:
+    for name in key.split("."):
+        if not isinstance(table, dict) or name not in table:
+            return None
+        table = table[name]
+    return table
+
+
+def command_line(source: str, scene: dict, output: str = "view.png") -> str:
+    """``incandescent render SOURCE -o OUTPUT`` with the flags that set the nested scene keys
+    ``scene`` (the inverse of :func:`overrides`, over :data:`RENDER`'s flags), shell-quoted; a
+    key no flag sets is an error naming it."""
+    import shlex
+
+    words, used = ["incandescent", "render", source, "-o", output], set()
+    for flag in _flat(RENDER):
+        value = None if flag.key is None else _at(scene, flag.key)
+        if value is None or flag.key in used:
+            continue
+        used.add(flag.key)
+        if flag.kind is bool:
+            on, _, off = (flag.decls[0] if flag.decls else flag.flag).partition("/")
+            words.append(on if value else off or "--no-" + on.removeprefix("--"))
+            continue
+        words += [flag.flag, _shown(value, flag)]
+    missing = _leaves(scene) - used
+    if missing:
+        raise ValueError(f"no render flag sets {', '.join(sorted(missing))}")
+    return " ".join(shlex.quote(w) for w in words)
+
+
+def _leaves(table: dict, prefix: str = "") -> set[str]:
+    keys = {f.key for f in _flat(RENDER) if f.key}
+    out: set[str] = set()
+    for name, value in table.items():
+        key = prefix + name
+        if isinstance(value, dict) and key not in keys:
+            out |= _leaves(value, key + ".")
+        else:
+            out.add(key)
+    return out
