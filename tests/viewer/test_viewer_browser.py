@@ -4,8 +4,6 @@ every image it shows is the one ``incandescent render`` writes for the view it r
 
 from __future__ import annotations
 
-import shutil
-import time
 from pathlib import Path
 
 import numpy as np
@@ -22,28 +20,16 @@ from _viewer_fixtures import (
 )
 
 from incandescent.io.images import read_exr
+from incandescent.viewer import browser
 
-CHROMIUM, DRIVER = shutil.which("chromium"), shutil.which("chromedriver")
-webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
-pytestmark = pytest.mark.skipif(
-    CHROMIUM is None or DRIVER is None,
-    reason="Debian's chromium and chromium-driver are not installed (scripts/setup.sh installs "
-    "them where apt-get exists)",
-)
+pytestmark = pytest.mark.skipif(browser.missing() is not None, reason=str(browser.missing()))
 #: The longest a page waits for a frame, s (the first render compiles the kernels).
 WAIT_S = 60.0
 
 
 @pytest.fixture(scope="module")
-def browser():
-    from selenium.webdriver.chrome.service import Service
-
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                "--window-size=1300,900"):  # fmt: skip
-        options.add_argument(arg)
-    driver = webdriver.Chrome(service=Service(DRIVER), options=options)
+def chromium():
+    driver = browser.headless_chromium()
     yield driver
     driver.quit()
 
@@ -64,22 +50,12 @@ def server(inputs):
     served.stop()
 
 
-def wait_for(driver, script: str, timeout: float = WAIT_S):
-    """The value of ``script`` (a JS expression) once it is truthy."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = driver.execute_script(f"return {script};")
-        if value:
-            return value
-        time.sleep(0.05)
-    text = driver.execute_script("return document.body.innerText")[:300]
-    raise AssertionError(f"the page never had {script}; it shows: {text}")
+def wait_for(driver, script: str):
+    return browser.wait_for(driver, script, WAIT_S)
 
 
 def final_after(driver, count: int) -> dict:
-    """The page's next full-size frame after ``count`` of them."""
-    wait_for(driver, f"viewer.finals > {count} && viewer.lastFinal.seq == viewer.seq")
-    return driver.execute_script("return viewer.lastFinal;")
+    return browser.final_after(driver, count, WAIT_S)
 
 
 def shown(driver) -> np.ndarray:
@@ -106,10 +82,10 @@ def set_control(driver, element_id: str, value) -> None:
 
 
 @pytest.fixture(scope="module")
-def page(browser, server):
-    browser.get(server.url)
-    final_after(browser, 0)
-    return browser
+def page(chromium, server):
+    chromium.get(server.url)
+    final_after(chromium, 0)
+    return chromium
 
 
 def test_the_page_shows_our_render_of_the_volume(page, inputs, tmp_path):
@@ -185,14 +161,15 @@ def test_copy_command_reproduces_the_view_bit_for_bit(page, tmp_path):
     np.testing.assert_array_equal(decode_png(out.read_bytes()), shown(page))
 
 
-def test_a_page_without_the_token_is_refused(browser, server):
-    browser.get(server.url.split("?")[0])
-    assert "a token is required" in browser.find_element("tag name", "body").text
-    browser.get(server.url.replace("token=", "token=x"))
-    assert "a token is required" in browser.find_element("tag name", "body").text
+def test_a_page_without_the_token_is_refused(chromium, server):
+    chromium.get(server.url.split("?")[0])
+    assert "a token is required" in chromium.find_element("tag name", "body").text
+    chromium.get(server.url.replace("token=", "token=x"))
+    assert "a token is required" in chromium.find_element("tag name", "body").text
 
 
-def test_the_time_slider_shows_the_chosen_frame(browser, inputs, tmp_path):
+def test_the_time_slider_shows_the_chosen_frame(chromium, inputs, tmp_path):
+    browser = chromium
     served = serve(inputs / "fire_####.npz")
     try:
         browser.get(served.url)

@@ -263,3 +263,24 @@ def test_a_preview_left_alone_is_refined():
         assert rendered == [(7, True), (7, False)]
     finally:
         worker.close()
+
+
+def test_inputs_are_what_render_and_animate_take(tmp_path):
+    """A volume file, a #### sequence, a glob, a scene file over a sequence, a simulation's
+    folder; each frame's scene names that frame's file."""
+    from incandescent.viewer.session import Session, open_inputs
+
+    frames = [blob(tmp_path / f"fire_{i:04d}.npz", 1500.0 + 100 * i) for i in range(3)]
+    (tmp_path / "scene.toml").write_text('[volume]\npath = "fire_####.npz"\n')
+    assert open_inputs(str(frames[0])).frames == (frames[0],)
+    for given in (str(tmp_path / "fire_####.npz"), str(tmp_path / "fire_*.npz"), str(tmp_path)):
+        inputs = open_inputs(given)
+        assert inputs.frames == tuple(frames) and inputs.is_sequence, given
+    inputs = open_inputs(str(tmp_path / "scene.toml"))
+    assert inputs.scene_file == tmp_path / "scene.toml" and len(inputs.frames) == 3
+    session = Session(inputs, backend="cpu")
+    assert session.scene(2, {}).volume.path == frames[2]
+    with pytest.raises(ValueError, match="frame 3 is not one of 0..2"):
+        session.scene(3, {})
+    with pytest.raises(FileNotFoundError, match="without fire_####.npz/.vdb frames"):
+        open_inputs(str((tmp_path / "empty").mkdir() or tmp_path / "empty"))
