@@ -6,6 +6,7 @@ thread's latest-wins queue."""
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import os
 import signal
@@ -22,6 +23,7 @@ from _viewer_fixtures import blob, decode_png, run_render, serve
 from typer.testing import CliRunner
 
 from incandescent.cli import app
+from incandescent.io.images import read_exr
 from incandescent.viewer.session import Request
 from incandescent.viewer.worker import LatestWins
 
@@ -156,6 +158,12 @@ def test_a_saved_scene_file_and_the_command_reproduce_a_changed_view(server, tmp
     status, png = get(f"{base_url(server)}/image.png?token={server.token}")
     assert status == 200
     np.testing.assert_array_equal(decode_png(png), shown)
+    status, exr = get(f"{base_url(server)}/image.exr?token={server.token}")
+    (tmp_path / "view.exr").write_bytes(exr)
+    rgb, meta, _ = read_exr(tmp_path / "view.exr")
+    reference, _, _ = read_exr(run_render(frame["command"], tmp_path / "command.exr"))
+    assert status == 200 and meta["colour_space"] == "srgb"
+    np.testing.assert_array_equal(rgb, reference)  # the linear image, unclipped
 
 
 def test_a_sun_and_scattering_render_as_the_command_says(server, tmp_path):
@@ -222,11 +230,29 @@ def test_the_command_warns_on_an_open_host_and_stops_on_ctrl_c(folder):
         url = lines[1].split("incandescent view: ", 1)[1].strip()
         local = url.replace("0.0.0.0", "127.0.0.1")
         assert get(local)[0] == 200 and get(local.split("?")[0])[0] == 403
-        process.send_signal(signal.SIGINT)
+        _interrupt_while_rendering(local, process)
         assert process.wait(timeout=10) == 130
+        assert "stopped: Ctrl-C" in process.stderr.read()  # type: ignore[union-attr]
     finally:
         process.kill()
         process.wait()
+
+
+def _interrupt_while_rendering(url: str, process: subprocess.Popen) -> None:
+    """Ctrl-C to ``process`` while its page's socket is open and a 1024² view renders (a Dr.Jit
+    thread in flight must not abort the exit)."""
+
+    async def talk() -> None:
+        socket_url = url.replace("http://", "ws://").replace("/?", "/ws?")
+        async with websockets.connect(socket_url, max_size=2**26) as ws:
+            await ws.recv()
+            big = {"render": {"width": 1024, "height": 1024}}
+            await ws.send(json.dumps(view(big)))
+            await asyncio.sleep(0.05)
+            process.send_signal(signal.SIGINT)
+
+    with contextlib.suppress(websockets.exceptions.ConnectionClosed):
+        asyncio.run(talk())
 
 
 def test_a_stale_request_is_dropped_not_queued():

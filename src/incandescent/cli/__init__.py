@@ -633,8 +633,22 @@ def view(o: Given) -> None:
             import webbrowser
 
             webbrowser.open(server.url)
-        server.run()
-        raise KeyboardInterrupt  # uvicorn returns on Ctrl-C: the same exit as an interrupt
+        with contextlib.suppress(KeyboardInterrupt):
+            server.run()  # until Ctrl-C (uvicorn returns, or raises it again)
+    _stopped()
+
+
+def _stopped() -> None:
+    """The viewer's end after Ctrl-C: exit status 130 at once. A render in flight runs on a
+    thread of Dr.Jit's C++ that the interpreter's shutdown would abort (SIGABRT); the viewer
+    writes no file, so nothing is left to finish."""
+    import os
+    import sys
+
+    say("stopped: Ctrl-C")
+    sys.stderr.flush()
+    sys.stdout.flush()
+    os._exit(EXIT_INTERRUPTED)
 
 
 @app.command()
