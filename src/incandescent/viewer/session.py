@@ -50,41 +50,45 @@ VOLUMES_KEPT = 4
 HISTOGRAM_BINS = 48
 
 
+#: Characters that make INPUT a pattern of files (a glob or a #### frame pattern).
+PATTERN = "#*?["
+
+
 @dataclass(frozen=True)
 class Inputs:
     """The files the viewer was started with: ``frames`` (one volume file, or a sequence's),
-    and ``scene_file`` when INPUT was a scene file; ``given``: INPUT as typed."""
+    and ``scene_file`` when INPUT was a scene file; ``given``: INPUT as typed; ``sequence``:
+    whether each frame is its own file (a pattern, a series, a simulation's folder)."""
 
     given: str
     frames: tuple[Path, ...]
     scene_file: Path | None = None
+    sequence: bool = False
 
     @property
     def is_sequence(self) -> bool:
-        return len(self.frames) > 1 or any(c in self.given for c in "#*?[") or self._folder
-
-    @property
-    def _folder(self) -> bool:
-        return Path(self.given).is_dir()
+        return self.sequence or len(self.frames) > 1
 
 
 def open_inputs(given: str) -> Inputs:
-    """INPUT as ``render``/``animate`` take it: a volume file, a sequence (a glob or ####
-    pattern), a scene file (whose ``[volume] path`` may be a sequence), or a folder written by
-    ``incandescent simulate`` (its ``fire_####`` frames)."""
+    """INPUT as ``render``/``animate`` take it: a volume file (an OpenFOAM time folder too), a
+    sequence (a glob or #### pattern, a ParaView .pvd, an OpenFOAM case), a scene file (whose
+    ``[volume] path`` may be a sequence), or a folder written by ``incandescent simulate`` (its
+    ``fire_####`` frames)."""
     from incandescent.animation import expand_sequence
+    from incandescent.io.vtk import is_openfoam, sequence_frames
 
     path = Path(given)
-    if path.is_dir():
-        return Inputs(given, tuple(_simulation_frames(path)))
     if path.suffix.lower() in SCENE_SUFFIXES:
         pattern = str(load_scene(path).volume.path)
-        sequence = any(c in pattern for c in "#*?[")
-        frames = expand_sequence(pattern) if sequence else [Path(pattern)]
-        return Inputs(given, tuple(frames), path)
-    if any(c in given for c in "#*?["):
-        return Inputs(given, tuple(expand_sequence(given)))
-    if not path.is_file():
+        series = any(c in pattern for c in PATTERN) or sequence_frames(pattern) is not None
+        frames = expand_sequence(pattern) if series else [Path(pattern)]
+        return Inputs(given, tuple(frames), path, series)
+    if path.is_dir() and not is_openfoam(path):
+        return Inputs(given, tuple(_simulation_frames(path)), sequence=True)
+    if any(c in given for c in PATTERN) or sequence_frames(given) is not None:
+        return Inputs(given, tuple(expand_sequence(given)), sequence=True)
+    if not path.exists():
         raise FileNotFoundError(f"{given}: no such volume file")
     return Inputs(given, (path,))
 
