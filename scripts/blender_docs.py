@@ -24,6 +24,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from incandescent.colorimetry.rgb_spaces import rgb_to_xyz
+from incandescent.dcc import EMISSION_UNIT_CD_M2
 from incandescent.imaging import auto_exposure_scale
 from incandescent.imaging.pipeline import DisplaySettings, to_display
 from incandescent.io.images import read_exr
@@ -69,7 +70,7 @@ def picture(ours_exr: Path, cycles_exr: Path, out: Path) -> str:
     """Both images through one display (our exposure for both), side by side; returns the
     figures the page quotes."""
     ours = rgb_to_xyz(read_exr(ours_exr)[0].astype(np.float64), "srgb")
-    cycles = rgb_to_xyz(read_exr(cycles_exr)[0].astype(np.float64), "srgb")
+    cycles = EMISSION_UNIT_CD_M2 * rgb_to_xyz(read_exr(cycles_exr)[0].astype(np.float64), "srgb")
     scale = auto_exposure_scale(ours[..., 1])
     display = DisplaySettings(auto_exposure=False)
     panels = [to_display(image * scale, display) for image in (ours, cycles)]

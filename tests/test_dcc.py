@@ -35,10 +35,10 @@ def _volume(species=None, velocity=None) -> Volume:
                               species=species, velocity_m_s=velocity)  # fmt: skip
 
 
-def test_emission_grid_is_kappa_times_planck_xyz_in_rec709():
+def test_emission_grid_is_kappa_times_planck_xyz_in_rec709_in_1e4_cd_m2():
     volume = _volume()
     rgb = dcc_grids(volume, TARGETS["houdini"]).grids["emission"]
-    expected = xyz_to_rgb(2.0 * blackbody_xyz(np.array([1800.0])), "srgb")[0]
+    expected = xyz_to_rgb(2.0 * blackbody_xyz(np.array([1800.0])), "srgb")[0] / 1e4
     np.testing.assert_allclose(rgb[1, 4, 2], expected, rtol=1e-4)  # the renderer's table
     cold = np.ones(rgb.shape[:3], bool)
     cold[1, 4, 2] = False

@@ -37,9 +37,10 @@ Units (each grid's ``unit`` and ``description`` metadata say them):
 * ``color``/``emission``: η = κ·XYZ(B(T)) + Σ species lines, converted XYZ → linear Rec.709
   (sRGB primaries, D65; no adaptation: RGB (1, 1, 1) is the white of luminance 1), each voxel's
   term from the renderer's emission models (Planck × CIE CMFs through their tables, ≤ 1e-4;
-  the species lines exact), in
-  (cd/m²) per metre. Integrated along a ray with Cycles' absorption it gives the radiance our
-  renderer gives, in the units of our EXRs (RGB in cd/m²).
+  the species lines exact), in 10⁴ (cd/m²) per metre (:data:`EMISSION_UNIT_CD_M2`: EEVEE holds
+  volume light in half floats, which a flame's cd/m² overflow). Integrated along a ray with the
+  absorption it gives the radiance our renderer gives, in 10⁴ cd/m²; Emission Strength 10⁴ gives
+  our EXRs' absolute cd/m² in Cycles.
 """
 
 from __future__ import annotations
@@ -61,6 +62,12 @@ from incandescent.volume.presets import BLENDER_FLAME_THRESHOLD, preset_paramete
 CHUNK_VOXELS = 65536
 #: The RGB space of the emission grid: linear Rec.709 (Blender's scene-linear default).
 EMISSION_SPACE = "srgb"
+#: The emission grid's unit, cd/m² per metre: η is written divided by it. EEVEE keeps volume
+#: grids and its volume light in half floats (largest 65504): a flame's η (10⁶–10⁸ (cd/m²)/m)
+#: would overflow to nothing (measured: a 10⁶ grid renders black in EEVEE 3.4, 10³ renders). In
+#: this unit a flame's η and the radiance it builds are 10²–10⁴; Emission Strength 10⁴ gives
+#: absolute cd/m² in Cycles.
+EMISSION_UNIT_CD_M2 = 1e4
 
 
 @dataclass(frozen=True)
@@ -165,12 +172,13 @@ class DCCGrids:
 
 def dcc_grids(volume: Volume, to: Target, emission: Emission | None = None) -> DCCGrids:
     """The Volume's grids renamed, converted and turned for ``to`` (see the module docstring)."""
-    rgb = xyz_to_rgb(emission_xyz(volume, emission), EMISSION_SPACE).astype(np.float32)
+    eta = emission_xyz(volume, emission) / EMISSION_UNIT_CD_M2
+    rgb = xyz_to_rgb(eta, EMISSION_SPACE).astype(np.float32)
     ours: dict[str, tuple[NDArray, str, str]] = {
         to.density: (volume.absorption_per_m, "1/m", "absorption coefficient κ (density = κ·1 m)"),
         to.temperature: (volume.temperature_K, "K", "gas temperature"),
         to.flame: (flame_from_kelvin(volume.temperature_K), "1", _FLAME),
-        to.emission: (rgb, "cd/m^2 per m", _EMISSION),
+        to.emission: (rgb, f"{EMISSION_UNIT_CD_M2:g} cd/m^2 per m", _EMISSION),
     }
     if volume.velocity_m_s is not None:
         ours[to.velocity] = (volume.velocity_m_s, "m/s", "gas velocity")
@@ -189,7 +197,8 @@ def dcc_grids(volume: Volume, to: Target, emission: Emission | None = None) -> D
 _FLAME = "Blender flame: (T/1000 K - 1.5)/1.5 clipped to 0..1 (0 where <= 0.01)"
 _EMISSION = (
     "emission coefficient, linear Rec.709 (sRGB primaries, D65), Planck x CIE 1931 plus species "
-    "lines: use as Principled Volume Emission Color with Emission Strength 1"
+    "lines, in 1e4 cd/m^2 per m: Principled Volume Emission Color, Emission Strength 1 (1e4: "
+    "absolute cd/m^2 in Cycles)"
 )
 
 

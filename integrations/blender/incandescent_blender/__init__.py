@@ -22,7 +22,7 @@ bl_info = {
     "blender": (3, 4, 0),
     "location": "Properties › Object › incandescent",
     "description": "Physically based fire: render volumes and Mantaflow caches with incandescent, "
-    "bake its emission colours for Cycles",
+    "bake its emission colours for Cycles and EEVEE",
     "category": "Render",
 }
 
@@ -335,7 +335,8 @@ def bake_frames(obj, scene):
 
 def emission_material():
     """A Principled Volume (absorbing, no scattering) with Emission Color from the grid ``color``
-    and Emission Strength 1: our radiance in scene-linear Rec.709 (cd/m²)."""
+    and Emission Strength 1: our radiance in scene-linear Rec.709, in 10⁴ cd/m² (the grid's unit,
+    which EEVEE's half floats hold; Emission Strength 10⁴ gives cd/m² in Cycles)."""
     material = bpy.data.materials.get("incandescent emission") or bpy.data.materials.new(
         "incandescent emission"
     )
