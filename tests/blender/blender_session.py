@@ -109,6 +109,46 @@ def render():
     }
 
 
+#: Camera variants whose conversion is checked against Blender's projection: (type, sensor fit).
+VARIANTS = [
+    ("ORTHO", "AUTO"),
+    ("PERSP", "HORIZONTAL"),
+    ("PERSP", "VERTICAL"),
+    ("ORTHO", "VERTICAL"),
+]
+
+
+@step("variants")
+def variants():
+    """The add-on's camera arguments and Blender's projection of the points, per variant."""
+    import incandescent_blender as addon
+
+    scene, domain = bpy.context.scene, bpy.data.objects["FireDomain"]
+    data = scene.camera.data
+    saved = (data.type, data.sensor_fit, data.ortho_scale)
+    frame_matrix = addon.domain_frame_matrix(domain, addon.fluid_domain(domain))
+    corners = [domain.matrix_world @ Vector(c) for c in domain.bound_box]
+    centre = sum(corners, Vector()) / 8.0
+    points = [centre] + [centre.lerp(c, 0.8) for c in corners]
+    out = []
+    for kind, fit in VARIANTS:
+        data.type, data.sensor_fit, data.ortho_scale = kind, fit, 2.5
+        bpy.context.view_layer.update()
+        out.append(
+            {
+                "variant": [kind, fit],
+                "arguments": addon.camera_arguments(scene, frame_matrix),
+                "projected": [list(world_to_camera_view(scene, scene.camera, p)) for p in points],
+            }
+        )
+    data.type, data.sensor_fit, data.ortho_scale = saved
+    return {
+        "points_world": [list(p) for p in points],
+        "frame_matrix": [list(r) for r in frame_matrix],
+        "cases": out,
+    }
+
+
 @step("animation")
 def animation():
     scene = bpy.context.scene

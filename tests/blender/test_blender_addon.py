@@ -107,8 +107,14 @@ def test_a_mesh_is_a_clear_report_not_a_traceback(session):
 def _camera_from(command: list[str]) -> tuple[Camera, int, int]:
     value = lambda flag: command[command.index(flag) + 1]  # noqa: E731
     vector = lambda flag: tuple(float(v) for v in value(flag).split(","))  # noqa: E731
-    camera = Camera(eye=vector("--eye"), target=vector("--target"), up=vector("--up"),
-                    fov_deg=float(value("--fov")))  # fmt: skip
+    if "--fov" in command:
+        lens = {"fov_deg": float(value("--fov"))}
+    else:
+        lens = {
+            "projection": value("--projection"),
+            "ortho_height_m": float(value("--ortho-height")),
+        }
+    camera = Camera(eye=vector("--eye"), target=vector("--target"), up=vector("--up"), **lens)
     return camera, int(value("--width")), int(value("--height"))
 
 
@@ -117,8 +123,10 @@ def _project(camera: Camera, points: np.ndarray, width: int, height: int) -> np.
     ``world_to_camera_view``), from its basis and vertical field of view."""
     right, up, forward = camera.basis()
     d = points - np.asarray(camera.eye)
-    depth = d @ forward
-    half_h = np.tan(np.radians(camera.fov_deg) / 2.0)
+    if camera.projection == "orthographic":
+        depth, half_h = np.ones(len(d)), camera.ortho_height_m / 2.0
+    else:
+        depth, half_h = d @ forward, np.tan(np.radians(camera.fov_deg) / 2.0)
     x = (d @ right) / depth / (half_h * width / height)
     y = (d @ up) / depth / half_h
     return np.stack([(x + 1.0) / 2.0, (y + 1.0) / 2.0], axis=-1)
@@ -135,6 +143,21 @@ def test_the_camera_projects_points_where_blender_does(session):
     ours = np.stack([in_file[:, 0], in_file[:, 2], -in_file[:, 1]], axis=-1)
     blender = np.asarray(render["projected"])[:, :2]
     np.testing.assert_allclose(_project(camera, ours, width, height), blender, atol=1e-6)
+
+
+def test_other_sensor_fits_and_orthographic_cameras_project_as_blenders(session):
+    """Orthographic (Auto and Vertical fit) and perspective (Horizontal and Vertical fit)
+    variants of the scene's camera, on its tall 64 × 96 image: Blender's projection = ours."""
+    variants = _step(session, "variants")
+    frame = np.asarray(variants["frame_matrix"])
+    world = np.c_[np.asarray(variants["points_world"]), np.ones(len(variants["points_world"]))]
+    in_file = (np.linalg.inv(frame) @ world.T).T[:, :3]
+    ours = np.stack([in_file[:, 0], in_file[:, 2], -in_file[:, 1]], axis=-1)
+    for case in variants["cases"]:
+        camera, width, height = _camera_from(case["arguments"])
+        blender = np.asarray(case["projected"])[:, :2]
+        projected = _project(camera, ours, width, height)
+        np.testing.assert_allclose(projected, blender, atol=1e-6, err_msg=str(case["variant"]))
 
 
 def test_render_operator_equals_incandescent_render_preset_blender(session, tmp_path):
