@@ -279,12 +279,13 @@ def test_a_stale_request_is_dropped_not_queued():
         worker.close()
 
 
-def test_a_preview_left_alone_is_refined():
+@pytest.mark.parametrize("refine_after_s", [None, 0.0])  # the default wait; the first view's
+def test_a_preview_left_alone_is_refined(refine_after_s):
     rendered, done = [], threading.Semaphore(0)
     worker = LatestWins(lambda r: rendered.append((r.seq, r.preview)),
                         lambda request, result: done.release())  # fmt: skip
     try:
-        worker.submit(Request({}, preview=True, seq=7))
+        worker.submit(Request({}, preview=True, seq=7, refine_after_s=refine_after_s))
         assert done.acquire(timeout=30) and done.acquire(timeout=30)
         assert rendered == [(7, True), (7, False)]
     finally:

@@ -235,7 +235,11 @@ def _request(message: dict) -> Request:
     if not (isinstance(frame, int) and isinstance(seq, int)) or isinstance(frame, bool):
         raise ValueError(f"frame and seq are integers; got {frame!r}, {seq!r}")
     overrides = check_view(message.get("overrides", {}))
-    return Request(overrides, frame, bool(message.get("preview", False)), seq)
+    refine = message.get("refine_after_s")
+    if refine is not None and not (isinstance(refine, (int, float)) and 0 <= refine <= 10):
+        raise ValueError(f"refine_after_s is a number of seconds in [0, 10]; got {refine!r}")
+    preview = bool(message.get("preview", False))
+    return Request(overrides, frame, preview, seq, None if refine is None else float(refine))
 
 
 def _probe(viewer: Viewer, message: dict) -> dict:

@@ -133,12 +133,15 @@ def _dotted(table: dict, prefix: str = "") -> list[str]:
 @dataclass(frozen=True)
 class Request:
     """What the page asks for: ``overrides`` (checked) over the inputs at ``frame``; a
-    ``preview`` is rendered at 1/PREVIEW_DIVISOR of the pixels per side."""
+    ``preview`` is rendered at 1/PREVIEW_DIVISOR of the pixels per side, then at full size when
+    no other request comes within ``refine_after_s`` (None: the worker's default; 0: at once,
+    as the page's first view)."""
 
     overrides: dict
     frame: int = 0
     preview: bool = False
     seq: int = 0
+    refine_after_s: float | None = None
 
 
 @dataclass(frozen=True)

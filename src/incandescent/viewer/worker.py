@@ -57,9 +57,10 @@ class LatestWins:
 
     def _refine(self, request: Request) -> None:
         """After a preview: its full-size render unless a newer request comes within
-        :data:`REFINE_AFTER_S`."""
+        :data:`REFINE_AFTER_S` (or the request's own ``refine_after_s``)."""
         with self._wake:
-            self._wake.wait_for(lambda: self._pending is not None or self._closed, REFINE_AFTER_S)
+            wait_s = REFINE_AFTER_S if request.refine_after_s is None else request.refine_after_s
+            self._wake.wait_for(lambda: self._pending is not None or self._closed, wait_s)
             if self._pending is None:
                 self._pending = replace(request, preview=False)
 

@@ -117,11 +117,11 @@ const ws = new WebSocket(
   (location.protocol === "https:" ? "wss://" : "ws://") + location.host + "/ws?token=" +
   encodeURIComponent(token));
 
-function send(preview) {
+function send(preview, refineAfterS) {
   if (ws.readyState !== WebSocket.OPEN) return;
   viewer.seq += 1;
   ws.send(JSON.stringify({ type: "view", overrides: overrides(), frame: viewer.frame,
-                           preview, seq: viewer.seq }));
+                           preview, seq: viewer.seq, refine_after_s: refineAfterS }));
 }
 viewer.send = send;
 
@@ -149,7 +149,7 @@ function hello(msg) {
   }
   showBase(msg.base || {});
   initial = controls();
-  send(false);
+  send(true, 0); // a coarse first image at once, refined right after it
 }
 
 // the controls show the view the command line set (its flags are the base of every view)
