@@ -24,6 +24,8 @@ Why it converges (what the first version, Adam on kelvin, did not):
   T upsampled (trilinear, in v) as the next level's start. The coarse grids are
   well-determined by few views and set the large scale; each finer level adds detail.
 - The start is a uniform T whose views' summed luminance equals the inputs' (bisection).
+- Voxels without absorption in reach (κ = 0 there and around) cannot be seen: they are held
+  at the lower bound and written at ``floor_K``.
 
 L-BFGS-B restarts every ``Settings.round`` iterations (its memory is not kept); after each
 round the state (level, iterations done, v, losses) is written to the checkpoint atomically, so
@@ -321,6 +323,14 @@ def _unknowns(grid, settings: Settings):
     return Radial(grid.shape) if settings.axisymmetric else None
 
 
+def dark_voxels(grid) -> NDArray[np.bool_]:
+    """Voxels whose T no render can see: κ = 0 there and in the 26 around (a sample's trilinear
+    κ and T reach one voxel out). They are held at the lower bound (written as the floor)."""
+    from scipy.ndimage import maximum_filter
+
+    return maximum_filter(np.asarray(grid.absorption_per_m), size=3, mode="nearest") <= 0
+
+
 def _luminance(image) -> float:
     """An image's summed Y (cd/m²)."""
     assert image.xyz is not None, "emission–absorption renders radiance"
@@ -334,6 +344,9 @@ class _Problem:
         self.views, self.grid, self.settings, self.backend = views, grid, settings, backend
         self.table, self.state, self.progress = table, state, progress
         self.map = _unknowns(grid, settings)
+        self.dark = np.zeros(grid.shape if self.map is None else self.map.shape, bool)
+        if self.map is None:
+            self.dark = dark_voxels(grid)
 
     def __call__(self, flat: NDArray) -> tuple[float, NDArray]:
         loss, grad = self.voxels(flat if self.map is None else self.map.matrix @ flat)
@@ -358,8 +371,11 @@ def _round(problem: _Problem, state: State, bounds, iterations: int) -> None:
     from scipy.optimize import minimize
 
     settings = problem.settings
-    result = minimize(problem, state.v.ravel(), jac=True, method="L-BFGS-B",
-                      bounds=[bounds] * state.v.size,
+    lo, hi = bounds
+    dark = problem.dark.ravel()
+    start = np.where(dark, lo, state.v.ravel())
+    result = minimize(problem, start, jac=True, method="L-BFGS-B",
+                      bounds=[(lo, lo) if d else (lo, hi) for d in dark],
                       options={"maxiter": iterations, "maxfun": 2 * iterations + 5,
                                "maxcor": settings.memory, "gtol": 0.0,
                                "ftol": 1e-12})  # fmt: skip
@@ -418,6 +434,8 @@ def _result(views, start, settings, table, state, backend) -> Result:
     v = state.v if unknowns is None else (unknowns.matrix @ state.v.ravel()).reshape(start.shape)
     temp, _ = table.temperature(v)
     temp = np.where(v <= table.v[0] + 1e-9, settings.floor_K, temp)  # invisible: ambient
+    if unknowns is None:
+        temp = np.where(dark_voxels(start), settings.floor_K, temp)
     volume = start.replace(temperature_K=temp.astype(np.float32))
     rendered = [np.asarray(render(volume, v.camera, v.settings, backend).xyz) for v in views]
     residuals = [image - view.xyz for image, view in zip(rendered, views, strict=True)]
