@@ -90,6 +90,7 @@ def measure(diameter_m: float, heat_kW: float, resolution: int, seconds: float, 
         "puffing_tip_hz": dominant_hz(run["tip"][keep], RATE_HZ),
         "height_expected_m": heskestad_height_m(heat_kW, diameter_m),
         "height_m": intermittency_height_m(run["present"][keep], h),
+        "domain_height_m": ny * h,
         "plume_slope": power_law_slope(z[plume], excess[plume]) if plume.sum() >= 3 else None,
         "plume_points": int(plume.sum()),
         "z_m": z.tolist(),
@@ -108,10 +109,13 @@ def table(results: list[dict]) -> str:
     ]
     for r in results:
         slope = "—" if r["plume_slope"] is None else f"{r['plume_slope']:.2f}"
+        height = f"{r['height_m']:.2f}"
+        if r["height_m"] >= r["domain_height_m"] - 1e-9:
+            height = f"≥ {height} (the top)"
         rows.append(
             f"| {r['D_m']:g} | {r['Q_kW']:g} | {r['resolution']} ({r['cells_across_D']:.0f} "
             f"across D) | {r['puffing_volume_hz']:.2f} / {r['puffing_tip_hz']:.2f} | "
-            f"{r['puffing_expected_hz']:.2f} | {r['height_m']:.2f} | "
+            f"{r['puffing_expected_hz']:.2f} | {height} | "
             f"{r['height_expected_m']:.2f} | {slope} | −1.67 | {r['wall_s']:.0f} |"
         )
     return "\n".join(rows) + "\n"
@@ -146,7 +150,13 @@ def main() -> None:
     parser.add_argument("--warmup", type=float, default=3.0)
     parser.add_argument("--pools", default="0.2:10,0.2:20,0.5:50,0.5:150,1.0:200,1.0:600")
     parser.add_argument("--plot", action="store_true")
+    parser.add_argument("--again", action="store_true", help="remake OUT.md/.png from OUT.json")
     args = parser.parse_args()
+    if args.again:
+        results = json.loads(args.out.with_suffix(".json").read_text())
+        args.out.with_suffix(".md").write_text(table(results))
+        plot(results, args.out.with_suffix(".png"))
+        return
     results = []
     for pool in args.pools.split(","):
         d, q = (float(v) for v in pool.split(":"))

@@ -1,12 +1,13 @@
-"""Render the four fire presets side by side: ``docs/fire-presets.png``.
+"""Render the fire presets side by side: ``docs/fire-presets.png``.
 
     python scripts/fire_gallery.py [--resolution 48] [--frames 24]
 
-Each preset (candle, torch, campfire, explosion) is simulated on the cpu backend (seed 0) into a
-temporary folder (the explosion for half the frames: by 1 s its fireball leaves the top of its
-domain) and its last frame rendered with the blackbody of T and soot and the CH/C₂
-lines of the reaction zone, auto-exposed per panel (the presets differ in brightness by orders of
-magnitude), then the four panels are written side by side.
+Each preset (candle, torch, campfire, explosion) and three methane pool fires (D = 0.2, 0.5 and
+1 m at 20, 100 and 400 kW) is simulated on the cpu backend (seed 0) into a temporary folder (the
+explosion for half the frames: by 1 s its fireball leaves the top of its domain) and its last
+frame rendered with the blackbody of T and soot and the CH/C₂ lines of the reaction zone,
+auto-exposed per panel (the presets differ in brightness by orders of magnitude), then the
+panels are written side by side.
 """
 
 from __future__ import annotations
@@ -22,13 +23,21 @@ from incandescent import api
 from incandescent.config import VolumeSection
 from incandescent.imaging import display_pixels
 from incandescent.simulation import PRESETS, preset, simulate
+from incandescent.simulation.pool import pool_fire
 
 OUT = Path(__file__).resolve().parents[1] / "docs/fire-presets.png"
 
 
+POOLS = {"pool 0.2 m": (0.2, 20.0), "pool 0.5 m": (0.5, 100.0), "pool 1 m": (1.0, 400.0)}
+
+
+def settings_of(name: str):
+    return pool_fire(*POOLS[name]) if name in POOLS else preset(name)
+
+
 def panel(name: str, resolution: int, frames: int, size: tuple[int, int]) -> np.ndarray:
     with tempfile.TemporaryDirectory() as tmp:
-        last = simulate(preset(name), resolution, frames, tmp, backend="cpu")[-1].path
+        last = simulate(settings_of(name), resolution, frames, tmp, backend="cpu")[-1].path
         spec = VolumeSection(path=last, species={"CH": "CH", "C2": "C2"})
         volume = api.volume_from_section(spec, api.Remap(), layout="dense")
         camera = api.camera_from(volume, fov_deg=35.0, frame_content=False)
@@ -42,8 +51,9 @@ def main() -> None:
     parser.add_argument("--resolution", type=int, default=48)
     parser.add_argument("--frames", type=int, default=24)
     a = parser.parse_args()
-    frames = {name: a.frames // 2 if name == "explosion" else a.frames for name in PRESETS}
-    panels = [panel(name, a.resolution, frames[name], (192, 288)) for name in PRESETS]
+    names = [*PRESETS, *POOLS]
+    frames = {name: a.frames // 2 if name == "explosion" else a.frames for name in names}
+    panels = [panel(name, a.resolution, frames[name], (192, 288)) for name in names]
     Image.fromarray(np.concatenate(panels, axis=1)).save(OUT)
     print(f"wrote {OUT}")
 

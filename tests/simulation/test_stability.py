@@ -130,7 +130,7 @@ def _run_preset(name: str, seconds: float, resolution: int) -> tuple[object, lis
 @pytest.mark.parametrize("name", ["candle", "torch", "campfire", "explosion"])
 def test_every_preset_stays_bounded_for_30_s(name):
     """30 s of simulated time at 32 cells: every frame's max |u| within twice the speed of the
-    physics' energy bound (``_speed_bound_m_s``: 4.8, 11.8, 15.3, 51.4 m/s for the candle,
+    physics' energy bound (``_speed_bound_m_s``: 2.2, 6.8, 7.4, 36.3 m/s for the candle,
     torch, campfire, explosion), the kinetic energy within that of the whole domain's air
     moving at the bound's speed (½ ρ_air V u²) and not growing (its largest value over the last
     10 s at most 1.5× that over the 10 s before), every step within the CFL number (never the
@@ -138,13 +138,13 @@ def test_every_preset_stays_bounded_for_30_s(name):
 
     Why twice: the energy bound holds for a parcel, not for the maximum of a field — pressure
     can gather several parcels' energy into one, and vorticity confinement (artistic, ε = 3 in
-    the campfire) adds energy. Measured peaks of max |u| over the 30 s: torch 10.2 m/s (0.86
-    of its bound), campfire 16.9 (1.11), explosion 25.3 (0.49), candle 5.07 (1.05); of the kinetic
-    energy 0.05, 0.09, 0.009 and 0.06 of the bound on it; its growth over the last 10 s
-    (2-s samples) 1.09, 1.07, 1.05, 0.84. Before issue 28 the campfire at
-    48 cells reached 180 m/s (12× its bound) at 6.5 s with its CFL number ≈ 28. Wall time on
-    2 shared cores: torch ≈ 3 min, campfire ≈ 3 min, explosion ≈ 1 min, candle ≈ 4.5 min (its 5 mm
-    cells at 4–5 m/s take 20 steps a frame): far over the 2 minutes aimed at, hence slow."""
+    the campfire) adds energy. Measured peaks of max |u| over the 30 s (buoyancy g(1 − T_air/T),
+    Smagorinsky mixing): torch 4.56 m/s (0.67 of its bound), campfire 6.88 (0.93), explosion
+    16.1 (0.44), candle 1.84 (0.82); of the kinetic energy 0.039, 0.11, 0.006 and 0.035 of the
+    bound on it; its growth over the last 10 s 1.05, 1.00, 0.99, 0.96. Before issue 28 the
+    campfire at 48 cells reached 180 m/s at 6.5 s with its CFL number ≈ 28. Wall time on 2
+    heavily shared cores (load 10–14): torch 4.5 min, campfire 4.3, explosion 3.6, candle 7.9
+    (its 5 mm cells take many steps a frame): hence slow."""
     from incandescent.simulation.settings import air_density_kg_m3
 
     settings, records = _run_preset(name, 30.0, 32)
