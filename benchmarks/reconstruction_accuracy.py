@@ -27,6 +27,8 @@ from pathlib import Path
 
 import numpy as np
 
+from incandescent.inverse.reconstruct import Settings
+
 #: The flame's box side, m.
 SIDE_M = 0.2
 
@@ -64,9 +66,8 @@ def ring(count: int, pixels: int):
     return cameras, settings
 
 
-def case(
-    n: int, pixels: int, count: int, noise: float, iterations: int, levels: int, tv: float
-) -> dict:
+def case(n: int, pixels: int, count: int, noise: float, iterations: int, levels: int,
+         tv: float, power: float) -> dict:  # fmt: skip
     """One reconstruction: its accuracy, time and memory."""
     import time
 
@@ -83,7 +84,9 @@ def case(
         for k, (x, c) in enumerate(zip(noisy, cameras, strict=True))
     ]
     start = time.perf_counter()
-    result = reconstruct(views, truth, Settings(iterations=iterations, levels=levels, tv_weight=tv))
+    result = reconstruct(
+        views, truth, Settings(iterations=iterations, levels=levels, tv_weight=tv, power=power)
+    )
     seconds = time.perf_counter() - start
     hot = truth.temperature_K > 1000
     error = (result.volume.temperature_K - truth.temperature_K)[hot]
@@ -92,7 +95,7 @@ def case(
                 if line.startswith("VmHWM"))  # fmt: skip
     return {
         "size": n, "pixels": pixels, "views": count, "noise": noise,
-        "iterations_per_level": iterations, "levels": levels, "tv_weight": tv,
+        "iterations_per_level": iterations, "levels": levels, "tv_weight": tv, "power": power,
         "hot_voxels": int(hot.sum()),
         "rmse_hot_K": float(np.sqrt(np.mean(error**2))),
         "mean_error_hot_K": float(np.mean(error)),
@@ -120,21 +123,23 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=100, help="per level")
     parser.add_argument("--levels", type=int, default=3)
     parser.add_argument("--tv", type=float, default=1e-3, help="TV weight")
+    parser.add_argument("--power", type=float, default=Settings.power, help="the unknown's p")
     parser.add_argument("--cases", default="all,few,noisy", help="all, few (4 views), noisy")
     parser.add_argument("--out", type=Path)
-    parser.add_argument("--child", nargs=7, help=argparse.SUPPRESS)
+    parser.add_argument("--child", nargs=8, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
-        n, px, count, noise, it, lv, tv = args.child
-        row = case(int(n), int(px), int(count), float(noise), int(it), int(lv), float(tv))
+        n, px, count, noise, it, lv, tv, p = args.child
+        row = case(int(n), int(px), int(count), float(noise), int(it), int(lv), float(tv), float(p))
         print(json.dumps(row))
         return
     plan = {"all": (args.views, 0.0), "few": (4, 0.0), "noisy": (args.views, 0.01)}
     rows = []
     for name in args.cases.split(","):
         count, noise = plan[name]
-        cmd = [sys.executable, __file__, "--child", str(args.size), str(args.pixels), str(count),
-               str(noise), str(args.iterations), str(args.levels), str(args.tv)]  # fmt: skip
+        numbers = (args.size, args.pixels, count, noise, args.iterations, args.levels, args.tv,
+                   args.power)  # fmt: skip
+        cmd = [sys.executable, __file__, "--child", *map(str, numbers)]
         out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
         rows.append({"case": name, **json.loads(out.strip().splitlines()[-1])})
         print(json.dumps(rows[-1]), flush=True)
