@@ -29,14 +29,18 @@ from incandescent.config import VolumeSection
 from incandescent.io.atomic import exclusive_lock
 from incandescent.simulation.run import FrameReport, frame_path, simulate
 from incandescent.simulation.settings import FireSettings
+from incandescent.simulation.upres import check_factor
 
 #: How a frame's input is described in its key, besides its file's identity.
 FIRE_LABEL = "fire frame"
 
 
-def frame_section(path: Path) -> VolumeSection:
-    """How a renderer reads a simulated frame: T, soot κ and the CH/C₂ lines."""
-    return VolumeSection(path=path, species={"CH": "CH", "C2": "C2"}, absorption=None)
+def frame_section(path: Path, upres: int | None = None) -> VolumeSection:
+    """How a renderer reads a simulated frame: T, soot κ and the CH/C₂ lines (``upres``: up-
+    resolved with sub-grid turbulence, ``simulation.upres``)."""
+    species: dict[str, str | float] = {"CH": "CH", "C2": "C2"}
+    factor = check_factor(upres, "--upres") if upres is not None else None
+    return VolumeSection(path=path, species=species, absorption=None, upres=factor)  # type: ignore[arg-type]
 
 
 def fire_job(
@@ -45,9 +49,10 @@ def fire_job(
     height: int = 480,
     backend: str = "auto",
     display: api.DisplaySettings | None = None,
+    upres: int | None = None,
 ) -> SequenceJob:
     """The sequence job of a run's frames ``paths`` (the first one read for the camera)."""
-    specs = tuple(frame_section(p) for p in paths)
+    specs = tuple(frame_section(p, upres) for p in paths)
     first = api.volume_from_section(specs[0], api.Remap(), layout="dense")
     camera = api.camera_from(first, fov_deg=35.0, frame_content=False)
     settings = api.RenderSettings(width=width, height=height)
@@ -70,13 +75,14 @@ def render_frames(
     workers: int | None = None,
     scheduler: str | None = None,
     display: api.DisplaySettings | None = None,
+    upres: int | None = None,
 ) -> AnimationSummary:
     """Render simulated frames 1 … ``frames`` to ``video`` (.mp4, .gif or a folder) with
     ``animate``'s machinery (one camera on the whole domain, one exposure from the middle frame
     unless ``display`` is given, frames keyed and resumable). ``workers`` / ``scheduler``:
     render the frames as Dask tasks (``cluster``)."""
     paths = [frame_path(Path(out_dir), i, suffix) for i in range(1, frames + 1)]
-    job = fire_job(paths, width, height, backend, display)
+    job = fire_job(paths, width, height, backend, display, upres)
     if display is None:
         job = job.with_fixed_exposure(len(paths) // 2)
     return cluster.render_job(job, video, workers, scheduler, overwrite=overwrite,
@@ -99,6 +105,7 @@ def simulate_and_render(
     scheduler: str | None = None,
     on_frame: Callable[[FrameReport], None] | None = None,
     limits: Limits | None = None,
+    upres: int | None = None,
 ) -> Path | None:
     """Simulate and render at once: each frame, once written, is rendered (with a fixed
     ``exposure_ev``: auto exposure would need the middle frame first) — as a task on the Dask
@@ -118,7 +125,7 @@ def simulate_and_render(
             if on_frame is not None:
                 on_frame(report)
             if not jobs:  # the camera needs the first frame
-                jobs.append(fire_job(paths, width, height, backend, display))
+                jobs.append(fire_job(paths, width, height, backend, display, upres))
             job, index = jobs[0], report.frame - 1
             task = job.task(index, folder, threads)
             # Its manifest entry before its PNG (the old one removed): a killed run resumes.
@@ -170,7 +177,7 @@ class FireRender:
     """How ``simulate --render`` renders the frames: to ``video`` at ``width`` × ``height``, on
     the cluster of ``workers`` / ``scheduler`` (neither: in-process), with a fixed
     ``exposure_ev`` — each frame then rendered as soon as it is written — or (None) auto
-    exposure of the middle frame, after the simulation."""
+    exposure of the middle frame, after the simulation; ``upres``: each frame up-resolved."""
 
     video: Path
     width: int = 320
@@ -178,6 +185,7 @@ class FireRender:
     exposure_ev: float | None = None
     workers: int | None = None
     scheduler: str | None = None
+    upres: int | None = None
 
 
 def simulate_to(
@@ -203,8 +211,8 @@ def simulate_to(
     if v.exposure_ev is not None:
         simulate_and_render(settings, resolution, frames, out_dir, v.video, v.exposure_ev,
                             v.width, v.height, backend, suffix, overwrite, v.workers,
-                            v.scheduler, on_frame, limits)  # fmt: skip
+                            v.scheduler, on_frame, limits, v.upres)  # fmt: skip
         return
     simulate(*sim)
     render_frames(out_dir, frames, v.video, v.width, v.height, settings.fps, backend, overwrite,
-                  suffix, True, v.workers, v.scheduler)  # fmt: skip
+                  suffix, True, v.workers, v.scheduler, upres=v.upres)  # fmt: skip

@@ -443,8 +443,14 @@ def simulate(o: Given) -> None:
         settings = _fire_settings(o, changes, named)
         if o.seed is not None:
             settings = _fire_settings(o, changes | {"seed": o.seed}, "--seed")
+        if o.upres is not None:
+            from incandescent.simulation.upres import check_factor
+
+            check_factor(o.upres, "--upres")
+            if o.render_to is None:
+                raise ValueError(f"--upres {o.upres} up-resolves what --render renders; add it")
         view = o.render_to and fire_video.FireRender(o.render_to, o.width, o.height, o.exposure,
-                                                     o.workers, o.scheduler)  # fmt: skip
+                                                     o.workers, o.scheduler, o.upres)  # fmt: skip
         to = _dcc_target(o.for_target, Path("frame.vdb"))
         with _simulation_progress(o.frames) as on_frame:
             on_frame = on_frame if to is None else _also_for(to, o.output, on_frame, limits)

@@ -232,6 +232,8 @@ VOLUME = (
     AXES,
     Flag("resolution", int, "Voxels along the longest side of a VTK/OpenFOAM mesh resampled "
          "onto voxels [about 2 per cell, 64–256].", "volume.resolution"),
+    Flag("upres", int, "Up-resolve a simulated frame 2, 3 or 4× with sub-grid turbulence from "
+         "its velocity grid (wavelet turbulence, Kim et al. 2008).", "volume.upres"),
     Flag("offset", float, "Temperature remap: T = (raw − offset)·scale [0].",
          "volume.temperature.offset"),
     Flag("scale", float, "Temperature remap scale, K per raw unit [1].",
@@ -590,6 +592,8 @@ SIMULATE = (
     BACKEND.but(default="auto", help=BACKEND_CHOICES + "."),
     Flag("render_to", Path, "Also render the frames to this .mp4/.gif/folder.",
          decls=("--render",)),
+    Flag("upres", int, "--render each frame up-resolved 2, 3 or 4× with sub-grid turbulence "
+         "(wavelet turbulence, Kim et al. 2008); the frames stay as simulated."),
     WIDTH.but(default=FIRE_SIZE[0], help="Rendered frame width."),
     HEIGHT.but(default=FIRE_SIZE[1], help="Rendered frame height."),
     CLUSTER[0].but(help="--render on a local Dask cluster of N workers."),

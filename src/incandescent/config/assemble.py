@@ -77,20 +77,26 @@ def volume_from_section(
     limits = limits or Limits()
     source = open_grids(spec.path, spec.axes, limits, spec.resolution)
     roles = _roles(spec, source)
-    if blur_fps is not None or velocity:
-        roles["velocity"] = _velocity_grid(spec, source)
+    if blur_fps is not None or velocity or spec.upres:
+        roles["velocity"] = _velocity_grid(spec, source, "up-resolving" if spec.upres else None)
     if _reads_leaves(spec, source, roles, layout, limits):
+        if spec.upres:
+            raise ValueError(f"{source.path}: volume.upres needs a dense grid; this one is sparse")
         return _sparse_volume(spec, source, roles, remap, blur_fps)
     species_grids = {k: v for k, v in spec.species.items() if isinstance(v, str)}
     extra_grids = set(species_grids.values()) | _scattering_grid(spec)
     read = source.read(sorted({n for n in roles.values() if n} | extra_grids))
     grids = read.arrays
+    if spec.upres:
+        grids = _upresolved(spec, grids, str(roles["velocity"]), read.voxel_size_m)
     by_role: dict[str, Any] = {role: grids[name] for role, name in roles.items() if name}
     by_role["species"] = {
         name: grids[value] if isinstance(value, str) else value
         for name, value in spec.species.items()
     }
     voxel = spec.voxel_size_m or read.voxel_size_m
+    if spec.upres and voxel:
+        voxel = voxel / spec.upres
     file_origin = read.origin_m  # in the source's axes
     if _up_axis(spec) == "z":
         by_role, file_origin = _z_up_to_y_up(by_role, file_origin, voxel)
@@ -124,8 +130,34 @@ def _scattering(volume: Volume, spec: VolumeSection, grids) -> Volume:
     return volume.with_scattering(value, spec.albedo, g, spec.scattering_alpha)
 
 
-def _velocity_grid(spec: VolumeSection, source) -> str:
-    """The velocity grid's name (given, or found by its aliases): blurring needs one."""
+#: The time (s) a frame's sub-grid turbulence carries its gas when up-resolved: one frame at
+#: 24 fps, the simulator's default rate.
+UPRES_DT_S = 1.0 / 24.0
+
+
+def _upresolved(spec: VolumeSection, grids: dict, velocity: str, voxel_m) -> dict:
+    """The file's grids ``spec.upres`` times finer with sub-grid turbulence (``simulation.
+    upres``) from the velocity grid (m/s); the velocity itself trilinearly up-sampled.
+    ``voxel_m``: the file's voxel (the section's ``voxel_size_m`` wins when given)."""
+    from incandescent.simulation.upres import upres_fields, upsample
+
+    factor = int(spec.upres or 1)
+    if not (spec.voxel_size_m or voxel_m):
+        raise ValueError("volume.upres needs the voxel size in m (volume.voxel_size_m)")
+    voxel_m = float(spec.voxel_size_m or voxel_m)
+
+    if spec.velocity_units != "m/s":
+        raise ValueError("volume.upres needs the velocity in m/s (velocity_units = 'm/s')")
+    speed = np.asarray(grids[velocity], dtype=np.float32) * spec.velocity_scale
+    scalars = {k: v for k, v in grids.items() if k != velocity and np.ndim(v) == 3}
+    out = upres_fields(scalars, speed, voxel_m, factor, UPRES_DT_S)
+    out[velocity] = np.stack([upsample(speed[..., a], factor) for a in range(3)], axis=-1)
+    return out
+
+
+def _velocity_grid(spec: VolumeSection, source, purpose: str | None = None) -> str:
+    """The velocity grid's name (given, or found by its aliases): blurring (or ``purpose``)
+    needs one."""
     if spec.grids.velocity is not None and spec.grids.velocity not in source.names:
         raise ValueError(
             f"{source.path}: no grid named {spec.grids.velocity!r} (the velocity grid); the file "
@@ -134,8 +166,9 @@ def _velocity_grid(spec: VolumeSection, source) -> str:
     name = spec.grids.velocity or resolve_grid_name("velocity", source.names, required=False)
     if name is None:
         raise ValueError(
-            f"{source.path}: motion blur (a shutter) needs a velocity grid; none is named "
-            f"velocity/vel/v among {list(source.names)} (name it with volume.grids.velocity)"
+            f"{source.path}: {purpose or 'motion blur (a shutter)'} needs a velocity grid; none "
+            f"is named velocity/vel/v among {list(source.names)} (name it with "
+            "volume.grids.velocity)"
         )
     return name
 

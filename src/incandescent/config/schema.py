@@ -174,6 +174,9 @@ class VolumeSection(_Section):
     #: Voxels along the longest side of a VTK/OpenFOAM dataset resampled onto voxels
     #: (``io.vtk``); None: chosen from its cell count.
     resolution: int | None = Field(default=None, ge=1, le=4096)
+    #: Up-resolve a simulated frame 2, 3 or 4× with sub-grid turbulence from its velocity grid
+    #: (``simulation.upres``, Kim et al. 2008); None: as stored.
+    upres: Literal[2, 3, 4] | None = None
     #: Units of the velocity grid (motion blur): metres per second, or voxels per frame; and a
     #: factor on it (Blender's Volume "Velocity Scale": Mantaflow stores cells per its own time
     #: unit, proportional to the domain's resolution, so a bake needs its factor).
