@@ -154,3 +154,20 @@ def test_cameras_that_do_not_match_the_views_are_one_line(case):
     _one_line_error(_run(folder, views), r"cameras\.json: 2 cameras for 6 views")
     (folder / "cameras.json").write_text(json.dumps([{"eye": [0, 0, 1], "fov": 3}]))
     _one_line_error(_run(folder, views[:1]), r"camera 1 \(for .*v0\.exr\): .*fov")
+
+
+def test_a_scene_file_gives_the_one_view_its_camera_and_film(case):
+    """One view with a scene file's [camera] and [render] film: a film that differs from the
+    view is refused, naming it (the same keys as ``incandescent render`` reads)."""
+    folder, _, views, _ = case
+    eye = ", ".join(str(x) for x in _cameras(6)[0]["eye"])
+    scene = folder / "scene.toml"
+    scene.write_text(f"[camera]\neye = [{eye}]\ntarget = [0.0, 0.0, 0.0]\nfov_deg = 30.0\n"
+                     "[render]\nwidth = 16\nheight = 12\n")  # fmt: skip
+    args = ["reconstruct", str(views[0]), "-c", str(scene), "--like", str(folder / "grid.npz"),
+            "-o", str(folder / "one.npz"), "--iterations", "2", "--levels", "1"]  # fmt: skip
+    _one_line_error(RUNNER.invoke(app, args), r"v0\.exr: its image is 12×12 pixels .* 16×12")
+    scene.write_text(scene.read_text().replace("width = 16", f"width = {PIXELS}"))
+    result = RUNNER.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    assert (folder / "one.npz").exists()

@@ -10,6 +10,9 @@ The cameras file (.toml or .json) lists one camera per view, in the views' order
     width = 128                  # optional: the film size the view must have
     height = 128
 
+A scene file (``[camera]`` with ``eye`` and ``target``; ``[render] width``/``height``) gives
+one camera: a single view, e.g. ``--axisymmetric``.
+
 The grid is a volume file's (``like``: its box, voxels and absorption; its T is ignored) or a
 box (``bounds_m``) of ``size`` voxels along its longest side with a constant absorption.
 """
@@ -31,7 +34,8 @@ FILM_KEYS = ("width", "height")
 
 def read_cameras(path: Path) -> list[dict]:
     """The camera entries of a .toml (``[[camera]]``) or .json (``{"camera": [...]}`` or a
-    list) file."""
+    list) file, or the one camera of a scene file (its ``[camera]``; width and height from its
+    ``[render]``)."""
     from incandescent.io.textfiles import parse_json, parse_toml
 
     try:
@@ -41,6 +45,9 @@ def read_cameras(path: Path) -> list[dict]:
     parse = parse_toml if path.suffix.lower() == ".toml" else parse_json
     data = parse(text, path)
     entries = data.get("camera") if isinstance(data, dict) else data
+    if isinstance(entries, dict):  # a scene file: its [camera], its [render] film
+        film = data.get("render", {})
+        entries = [{**entries, **{k: film[k] for k in FILM_KEYS if k in film}}]
     if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
         raise ValueError(f"{path}: expected a list of cameras ([[camera]] tables)")
     return entries
