@@ -633,7 +633,8 @@ RECONSTRUCT = (
     Flag("views", list[Path], "EXR radiance views (absolute linear RGB, as render writes them).",
          default=..., argument=True),
     Flag("cameras", Path, "Their cameras: a .toml ([[camera]] tables) or .json list, one per "
-         "view in order (eye, target, up, fov_deg…; width/height: the film the view must have).",
+         "view in order (eye, target, up, fov_deg…; width/height: the film the view must have); "
+         "or a scene file's [camera] for one view.",
          default=..., decls=("--cameras", "-c")),
     Flag("output", Path, "The temperature volume: .npz or .vdb (beside it NAME.residual-K.exr "
          "per view, NAME.loss.json, and while running NAME.checkpoint.npz).", default=...,
