@@ -66,7 +66,7 @@ def _one_line_error(result, pattern: str) -> None:
     assert re.search(pattern, lines[0]), lines[0]
 
 
-def test_reconstruct_writes_the_volume_its_residuals_and_the_loss(case):
+def test_reconstruct_writes_the_volume_its_residuals_and_the_loss(case, one_thread):
     """8³ from six views of 12², 15 iterations at 4³ then 8³: the RMSE over the voxels above
     1000 K under 100 K (the Python API on the same views: 55.7 K)."""
     folder, truth, views, _ = case
