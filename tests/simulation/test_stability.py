@@ -159,3 +159,14 @@ def test_every_preset_stays_bounded_for_30_s(name):
     assert not any(r["capped"] for r in records)
     assert max(r["cfl_max"] for r in records) <= settings.cfl * (1.0 + 1e-9)
     assert all(r["hot_volume_m3"] > 0.0 for r in records if r["time_s"] <= stop)
+
+
+def test_a_diagnostics_record_that_cannot_be_written_names_its_frame(tmp_path):
+    """The frame's record cannot be appended (here the file is a folder; a full disk alike):
+    one ``OutputError`` naming the frame and the file, not a bare OSError."""
+    from incandescent.io.atomic import OutputError
+    from incandescent.simulation import diagnostics
+
+    (tmp_path / diagnostics.DIAGNOSTICS).mkdir()
+    with pytest.raises(OutputError, match=r"frame 7: cannot add its record to .*diagnostics"):
+        diagnostics.append(tmp_path, {"frame": 7, "time_s": 0.3})

@@ -12,6 +12,7 @@ divergence |∇·u − D| (1/s), and the wall seconds (a measurement, never asse
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -19,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from incandescent.io.atomic import atomic_write
+from incandescent.io.atomic import OutputError, atomic_write
 from incandescent.simulation.settings import air_density_kg_m3
 
 DIAGNOSTICS = "diagnostics.jsonl"
@@ -55,11 +56,24 @@ def frame_record(solver, state, frame: int, path: Path, steps, seconds: float) -
 
 
 def append(out_dir: Path, record: dict) -> None:
-    """Add one frame's record to ``diagnostics.jsonl`` (non-finite numbers as null)."""
+    """Add one frame's record to ``diagnostics.jsonl`` (non-finite numbers as null). A record
+    that cannot be written (a full disk) is an ``OutputError`` naming the frame and the file,
+    and leaves no partial line behind."""
     finite = lambda v: not (isinstance(v, float) and not math.isfinite(v))  # noqa: E731
     clean = {key: (value if finite(value) else None) for key, value in record.items()}
-    with open(out_dir / DIAGNOSTICS, "a", encoding="utf-8") as handle:
-        handle.write(json.dumps(clean, allow_nan=False) + "\n")
+    path = out_dir / DIAGNOSTICS
+    size = path.stat().st_size if path.is_file() else 0
+    try:
+        with open(path, "a", encoding="utf-8") as handle:
+            handle.write(json.dumps(clean, allow_nan=False) + "\n")
+    except OSError as error:
+        if path.is_file():
+            with contextlib.suppress(OSError):
+                os.truncate(path, size)
+        raise OutputError(
+            f"frame {record.get('frame')}: cannot add its record to {path}: "
+            f"{error.strerror or error} (the frame and its checkpoint are written)"
+        ) from None
 
 
 def keep_until(out_dir: Path, frame: int) -> None:
