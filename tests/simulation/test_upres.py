@@ -118,3 +118,17 @@ def test_render_up_resolves_a_simulated_frame(tmp_path):
                                       "--upres", "2"])  # fmt: skip
     assert result.exit_code == 2 and "up-resolving needs a velocity grid" in result.output
     assert "Traceback" not in result.output
+
+
+def test_up_resolving_is_refused_before_work_over_the_memory_budget(tmp_path):
+    """4× a 16-cell frame is 64× its voxels: with a 1 MiB budget, refused in one line."""
+    from incandescent import api
+    from incandescent.budget import BudgetError, Limits
+    from incandescent.config import VolumeSection
+    from incandescent.simulation import preset, simulate
+
+    frame = simulate(preset("torch"), 16, 1, tmp_path / "fire")[-1].path
+    with pytest.raises(BudgetError, match=r"up-resolving 4× .* needs about"):
+        api.volume_from_section(
+            VolumeSection(path=frame, upres=4), api.Remap(), Limits(max_memory_bytes=2**20)
+        )

@@ -88,7 +88,7 @@ def volume_from_section(
     read = source.read(sorted({n for n in roles.values() if n} | extra_grids))
     grids = read.arrays
     if spec.upres:
-        grids = _upresolved(spec, grids, str(roles["velocity"]), read.voxel_size_m)
+        grids = _upresolved(spec, grids, str(roles["velocity"]), read.voxel_size_m, limits)
     by_role: dict[str, Any] = {role: grids[name] for role, name in roles.items() if name}
     by_role["species"] = {
         name: grids[value] if isinstance(value, str) else value
@@ -133,9 +133,12 @@ def _scattering(volume: Volume, spec: VolumeSection, grids) -> Volume:
 #: The time (s) a frame's sub-grid turbulence carries its gas when up-resolved: one frame at
 #: 24 fps, the simulator's default rate.
 UPRES_DT_S = 1.0 / 24.0
+#: Peak bytes per fine voxel while up-resolving: the noise's three complex128 potentials and
+#: curl, the float64 wavenumbers, the displacement and each grid's fine copy (~ 200 B).
+UPRES_BYTES_PER_FINE_VOXEL = 200
 
 
-def _upresolved(spec: VolumeSection, grids: dict, velocity: str, voxel_m) -> dict:
+def _upresolved(spec: VolumeSection, grids: dict, velocity: str, voxel_m, limits) -> dict:
     """The file's grids ``spec.upres`` times finer with sub-grid turbulence (``simulation.
     upres``) from the velocity grid (m/s); the velocity itself trilinearly up-sampled.
     ``voxel_m``: the file's voxel (the section's ``voxel_size_m`` wins when given)."""
@@ -148,6 +151,10 @@ def _upresolved(spec: VolumeSection, grids: dict, velocity: str, voxel_m) -> dic
 
     if spec.velocity_units != "m/s":
         raise ValueError("volume.upres needs the velocity in m/s (velocity_units = 'm/s')")
+    fine = int(np.prod(np.shape(grids[velocity])[:3])) * factor**3
+    limits.check_memory(
+        fine * UPRES_BYTES_PER_FINE_VOXEL, f"up-resolving {factor}× ({fine:,} voxels)"
+    )
     speed = np.asarray(grids[velocity], dtype=np.float32) * spec.velocity_scale
     scalars = {k: v for k, v in grids.items() if k != velocity and np.ndim(v) == 3}
     out = upres_fields(scalars, speed, voxel_m, factor, UPRES_DT_S)
