@@ -312,8 +312,9 @@ class FireSolver:
         eddy viscosity ν_t = (C_s h)²|S| (Smagorinsky 1963, Mon. Weather Rev. 91:99) and
         D_t = ν_t/Pr_t — the closure of FDS's LES (McGrattan et al., FDS Technical Reference
         Guide, C_s = 0.2, Pr_t = Sc_t = 0.5). In cell units h = 1. Without it the hot products
-        are only carried, never diluted by the air the plume entrains below the grid's scale,
-        and stay at flame temperature to the top of the domain."""
+        are diluted only by the eddies the grid resolves; at 64 cells across a pool fire the
+        sub-grid term changes little (the centreline slope −0.22 with it, −0.23 without:
+        ``docs/simulation.md``)."""
         s = self.settings
         if s.smagorinsky <= 0.0:
             return temperature, soot
