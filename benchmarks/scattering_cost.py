@@ -2,7 +2,7 @@
 medians of interleaved rounds; DESIGN.md §6). Issue 27's target: single scattering ≤ 4× the
 emission-only render.
 
-Usage: python benchmarks/scattering_cost.py OUT.json [--resolution 256] [--rounds 5]
+Usage: python benchmarks/scattering_cost.py OUT.json [--resolution 256] [--rounds 5] [--backend cpu]
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("out", type=Path)
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--backend", default="cpu", help="cpu or cuda")
     args = parser.parse_args(argv)
     scene = SCENES["fire"]
     dark = scene.build(None)
@@ -37,14 +38,15 @@ def main(argv: list[str] | None = None) -> dict:
     }
     times: dict[str, list[float]] = {name: [] for name in variants}
     for volume, integrator in variants.values():  # compile
-        render(volume, camera, s, "cpu", integrator=integrator)
+        render(volume, camera, s, args.backend, integrator=integrator)
     for _ in range(args.rounds):
         for name, (volume, integrator) in variants.items():
-            image = render(volume, camera, s, "cpu", integrator=integrator)
+            image = render(volume, camera, s, args.backend, integrator=integrator)
             times[name].append(image.metadata["seconds"])
     medians = {name: statistics.median(t) for name, t in times.items()}
     report = {
         "scene": f"fire demo {dark.shape}, {args.resolution}² px, albedo 0.7, one sun",
+        "backend": args.backend,
         "median_ms": {k: v * 1e3 for k, v in medians.items()},
         "single_over_emission": medians["single_scattering"] / medians["emission_absorption"],
         "march_over_emission": medians["single_scattering_march"] / medians["emission_absorption"],
