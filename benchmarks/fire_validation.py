@@ -2,7 +2,8 @@
 (Heskestad 1983) and the plume's centreline temperature (McCaffrey 1979).
 
 For each pool (D, Q) of ``--pools`` at each ``--resolution``: ``pool_fire(D, Q)`` (methane) is
-run for ``--seconds`` of simulated time at 24 samples per second on the cpu backend; the first
+run for ``--seconds`` of simulated time at 24 samples per second on ``--backend`` (cpu; cuda on a
+GPU, where ``--jobs`` runs the pools side by side in their own processes); the first
 ``--warmup`` seconds are dropped. Measured, over the rest:
 
 - the puffing frequency: the dominant frequency above 0.5 Hz of the luminous volume (gas above
@@ -15,14 +16,16 @@ run for ``--seconds`` of simulated time at 24 samples per second on the cpu back
 Writes ``OUT.json`` (every figure, and the profiles) and ``OUT.md`` (the table); with ``--plot``
 also ``OUT.png`` (spectra and profiles). Usage:
 ``python benchmarks/fire_validation.py OUT [--resolution 64] [--seconds 12] [--warmup 3]
-[--pools 0.2:10,0.2:20,0.5:50,0.5:150,1.0:200,1.0:600] [--plot]``.
+[--pools 0.2:10,0.2:20,0.5:50,0.5:150,1.0:200,1.0:600] [--backend cpu] [--jobs 1] [--plot]``.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -43,10 +46,13 @@ from incandescent.simulation.run import advance_frame
 RATE_HZ = 24.0
 
 
-def sample_run(diameter_m: float, heat_kW: float, resolution: int, seconds: float) -> dict:
+def sample_run(
+    diameter_m: float, heat_kW: float, resolution: int, seconds: float, backend: str = "cpu"
+) -> dict:
     """Per-sample series of one pool fire: luminous volume, tip height, layer presence and the
     centreline temperature (NumPy arrays), with the solver's cell size and wall time."""
-    solver = FireSolver(pool_fire(diameter_m, heat_kW, changes={"fps": RATE_HZ}), resolution, "cpu")
+    settings = pool_fire(diameter_m, heat_kW, changes={"fps": RATE_HZ})
+    solver = FireSolver(settings, resolution, backend)
     state, h, (nx, _, nz) = solver.initial_state(), solver.h, solver.shape
     volume, tip, present, centre = [], [], [], []
     began = time.perf_counter()
@@ -70,9 +76,16 @@ def sample_run(diameter_m: float, heat_kW: float, resolution: int, seconds: floa
     }
 
 
-def measure(diameter_m: float, heat_kW: float, resolution: int, seconds: float, warmup: float):
+def measure(
+    diameter_m: float,
+    heat_kW: float,
+    resolution: int,
+    seconds: float,
+    warmup: float,
+    backend: str = "cpu",
+):
     """The figures of one pool fire against the correlations (see the module docstring)."""
-    run = sample_run(diameter_m, heat_kW, resolution, seconds)
+    run = sample_run(diameter_m, heat_kW, resolution, seconds, backend)
     keep = slice(round(warmup * RATE_HZ), None)
     h, ny = run["h"], run["shape"][1]
     z = (np.arange(ny) + 0.5) * h
@@ -82,6 +95,7 @@ def measure(diameter_m: float, heat_kW: float, resolution: int, seconds: float, 
         "D_m": diameter_m,
         "Q_kW": heat_kW,
         "resolution": resolution,
+        "backend": backend,
         "shape": list(run["shape"]),
         "cells_across_D": diameter_m / h,
         "wall_s": run["wall_s"],
@@ -104,7 +118,7 @@ def table(results: list[dict]) -> str:
     """The results as a Markdown table, each figure beside its correlation."""
     rows = [
         "| D (m) | Q (kW) | cells | puffing Hz (vol / tip) | Cetegen–Ahmed Hz | flame height m "
-        "| Heskestad m | plume slope | McCaffrey | wall s |",
+        "| Heskestad m | plume slope | McCaffrey | wall s (backend) |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in results:
@@ -116,7 +130,8 @@ def table(results: list[dict]) -> str:
             f"| {r['D_m']:g} | {r['Q_kW']:g} | {r['resolution']} ({r['cells_across_D']:.0f} "
             f"across D) | {r['puffing_volume_hz']:.2f} / {r['puffing_tip_hz']:.2f} | "
             f"{r['puffing_expected_hz']:.2f} | {height} | "
-            f"{r['height_expected_m']:.2f} | {slope} | −1.67 | {r['wall_s']:.0f} |"
+            f"{r['height_expected_m']:.2f} | {slope} | −1.67 | {r['wall_s']:.0f} "
+            f"({r.get('backend', 'cpu')}) |"
         )
     return "\n".join(rows) + "\n"
 
@@ -142,6 +157,23 @@ def plot(results: list[dict], path: Path) -> None:
     fig.savefig(path, dpi=90)
 
 
+def run_pools(pools: list[tuple[float, ...]], args: argparse.Namespace) -> list[dict]:
+    """``measure`` of every pool, ``args.jobs`` at a time (each in its own spawned process, as
+    Dr.Jit's CUDA context is not fork-safe), the JSON rewritten as each one ends (so a run
+    stopped early keeps the pools it finished), in the order of ``pools``."""
+    common = (args.resolution, args.seconds, args.warmup, args.backend)
+    context = multiprocessing.get_context("spawn")
+    results: list[dict] = []
+    with ProcessPoolExecutor(max_workers=max(args.jobs, 1), mp_context=context) as pool:
+        futures = {pool.submit(measure, d, q, *common): i for i, (d, q) in enumerate(pools)}
+        for future in as_completed(futures):
+            results.append(future.result())
+            results.sort(key=lambda r: pools.index((r["D_m"], r["Q_kW"])))
+            print(table([future.result()]).splitlines()[-1], flush=True)
+            args.out.with_suffix(".json").write_text(json.dumps(results, indent=1))
+    return results
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("out", type=Path, help="OUT: writes OUT.json, OUT.md (and OUT.png)")
@@ -149,6 +181,8 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=12.0)
     parser.add_argument("--warmup", type=float, default=3.0)
     parser.add_argument("--pools", default="0.2:10,0.2:20,0.5:50,0.5:150,1.0:200,1.0:600")
+    parser.add_argument("--backend", default="cpu", help="cpu or cuda")
+    parser.add_argument("--jobs", type=int, default=1, help="pools run at once (own processes)")
     parser.add_argument("--plot", action="store_true")
     parser.add_argument("--again", action="store_true", help="remake OUT.md/.png from OUT.json")
     args = parser.parse_args()
@@ -157,12 +191,9 @@ def main() -> None:
         args.out.with_suffix(".md").write_text(table(results))
         plot(results, args.out.with_suffix(".png"))
         return
-    results = []
-    for pool in args.pools.split(","):
-        d, q = (float(v) for v in pool.split(":"))
-        results.append(measure(d, q, args.resolution, args.seconds, args.warmup))
-        print(table(results[-1:]).splitlines()[-1], flush=True)
-        args.out.with_suffix(".json").write_text(json.dumps(results, indent=1))
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    pools = [tuple(float(v) for v in pool.split(":")) for pool in args.pools.split(",")]
+    results = run_pools(pools, args)
     args.out.with_suffix(".md").write_text(table(results))
     if args.plot:
         plot(results, args.out.with_suffix(".png"))
