@@ -4,7 +4,7 @@ Run with Blender's own Python (Debian 12's ``blender`` package is Blender 3.4.1)
 
     blender -b --factory-startup --python scripts/make_blender_fire_cache.py -- OUTDIR \
         [--frames 20] [--resolution 64] [--compression BLOSC|ZIP|NONE] [--precision 16|32] \
-        [--flow-type FIRE|BOTH] [--scene]
+        [--flow-type FIRE|BOTH] [--scene] [--cube] [--cfl 4] [--timesteps-max 4]
 
 The scene: a gas domain 1 × 1 × 2 m (tall in z) at ``--resolution`` cells along its longest side
 (64 → 32 × 32 × 64 voxels) and a small cube near the floor emitting FIRE (flame + fuel + heat),
@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 import bpy  # type: ignore[import-not-found]  # Blender's own module
@@ -47,6 +48,13 @@ def parse_args() -> argparse.Namespace:
         "and no vorticity (a velocity-units probe)",
     )
     parser.add_argument(
+        "--cube", action="store_true", help="a 1 m cube domain (n³ cells) instead of 1 × 1 × 2 m"
+    )
+    parser.add_argument("--cfl", type=float, default=None, help="the domain's CFL number")
+    parser.add_argument(
+        "--timesteps-max", type=int, default=None, help="sub-steps a frame, at most"
+    )
+    parser.add_argument(
         "--scene",
         action="store_true",
         help="also add a camera (64 × 96 pixels, 35 mm) and save the scene as OUTDIR/fire.blend "
@@ -59,12 +67,13 @@ def clear_scene() -> None:
     bpy.ops.wm.read_factory_settings(use_empty=True)
 
 
-def add_domain() -> bpy.types.Object:
-    """A 1 × 1 × 2 m box standing on z = 0 (Blender is z-up)."""
-    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, 1.0))
+def add_domain(cube: bool = False) -> bpy.types.Object:
+    """A 1 × 1 × 2 m box standing on z = 0 (Blender is z-up); with ``cube``, 1 × 1 × 1 m."""
+    height = 1.0 if cube else 2.0
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0.0, 0.0, height / 2))
     domain = bpy.context.active_object
     domain.name = "FireDomain"
-    domain.scale = (1.0, 1.0, 2.0)
+    domain.scale = (1.0, 1.0, height)
     bpy.ops.object.transform_apply(location=False, rotation=False, scale=True)
     return domain
 
@@ -107,6 +116,10 @@ def configure_domain(domain: bpy.types.Object, args: argparse.Namespace) -> None
     settings.resolution_max = args.resolution
     settings.use_adaptive_domain = False
     settings.use_noise = False
+    if args.cfl is not None:
+        settings.cfl_condition = args.cfl
+    if args.timesteps_max is not None:
+        settings.timesteps_max = args.timesteps_max
     # Cache settings last (after the FIRE flow exists), see the module docstring.
     settings.cache_directory = str(args.outdir.resolve())
     settings.cache_type = "ALL"
@@ -149,14 +162,16 @@ def main() -> None:
     args = parse_args()
     args.outdir.mkdir(parents=True, exist_ok=True)
     clear_scene()
-    domain = add_domain()
+    domain = add_domain(args.cube)
     flow = add_fire_flow(args.flow_type)  # before the domain's cache settings
     configure_domain(domain, args)
     if args.initial_velocity is not None:
         probe_velocity(flow, domain, args.initial_velocity)
     if args.scene:
         add_camera()
+    began = time.perf_counter()
     bake(domain, args.frames)
+    print(f"BAKE_SECONDS {time.perf_counter() - began}")  # benchmarks/fire_vs_mantaflow.py
     if args.scene:
         bpy.ops.wm.save_as_mainfile(filepath=str((args.outdir / "fire.blend").resolve()))
     written = sorted(args.outdir.rglob("*.vdb"))
