@@ -441,8 +441,10 @@ def simulate(o: Given) -> None:
         )
         named = None if o.settings_file is None else str(o.settings_file)
         settings = _fire_settings(o, changes, named)
-        if o.seed is not None:
-            settings = _fire_settings(o, changes | {"seed": o.seed}, "--seed")
+        for key, flag, value in (("seed", "--seed", o.seed), ("wind_m_s", "--wind", o.wind)):
+            if value is not None:
+                changes = changes | {key: value}
+                settings = _fire_settings(o, changes, flag)
         if o.upres is not None:
             from incandescent.simulation.upres import check_factor
 

@@ -586,6 +586,8 @@ SIMULATE = (
     Flag("settings_file", Path, "A .toml/.json of FireSettings fields over the preset's.",
          decls=("--settings",)),
     Flag("seed", int, "Seed of the sources' turbulence [preset's: 0]."),
+    Flag("wind", float, "A steady wind along +x in m/s (settings key wind_m_s) [0: still air].",
+         extra={"metavar": "M/S"}),
     Flag("frame_format", str, "Frame files: npz | vdb.", default="npz", decls=("--format",)),
     FOR_TARGET.but(help="Also write each frame for an application, into OUTPUT/TARGET/: "
                    "blender | houdini (needs --format vdb; see convert --for)."),

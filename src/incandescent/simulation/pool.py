@@ -130,6 +130,23 @@ def mccaffrey_excess_K(height_m: np.ndarray, heat_release_kW: float, t_air_K: fl
     return t_air_K / (2.0 * 9.81) * (kappa / 0.9) ** 2 * z ** (2.0 * eta - 1.0)
 
 
+def burning_rate_kg_m2_s(diameter_m: float, heat_release_kW: float, fuel: Fuel) -> float:
+    """ṁ'' = Q/(ΔH_c · πD²/4): the fuel burnt per area of pool (kg/(m²·s))."""
+    return heat_release_kW * 1e3 / fuel.heat_of_combustion_J_kg / (math.pi * diameter_m**2 / 4.0)
+
+
+def wind_tilt_deg(
+    wind_m_s: float, diameter_m: float, heat_release_kW: float, fuel: Fuel, t_air_K: float = 300.0
+) -> float:
+    """The angle from the vertical (degrees) of a pool fire's flame in a wind u_w, by the
+    American Gas Association's correlation (AGA 1974; Beyler, SFPE Handbook 5th ed. ch. 66):
+    cos θ = 1 for u* ≤ 1, 1/√u* above, with u* = u_w / (g ṁ'' D / ρ_air)^(1/3)."""
+    scale = (9.81 * burning_rate_kg_m2_s(diameter_m, heat_release_kW, fuel) * diameter_m
+             / air_density_kg_m3(t_air_K)) ** (1.0 / 3.0)  # fmt: skip
+    u_star = wind_m_s / scale
+    return 0.0 if u_star <= 1.0 else math.degrees(math.acos(1.0 / math.sqrt(u_star)))
+
+
 # --- measuring a simulation -----------------------------------------------------------------
 
 

@@ -144,6 +144,12 @@ class FireSettings(_Model):
     walls: bool = Field(
         default=False, description="solid side walls (a chimney); default open sides"
     )
+    wind_m_s: float = Field(
+        default=0.0,
+        ge=0,
+        description="a steady wind along +x (m/s): the far field moves at it, air enters through "
+        "the x− side at it; 0: still air (needs open sides)",
+    )
     noise: float = Field(default=0.2, ge=0, le=1, description="seeded turbulence at the sources")
     seed: int = Field(default=0, ge=0)
     sources: tuple[Source, ...] = (Source(),)
@@ -167,6 +173,11 @@ class FireSettings(_Model):
             raise ValueError(f"domain_m must be positive; got {self.domain_m}")
         _check_sources_inside(self)
         _check_below_sound(self)
+        if self.wind_m_s > 0 and self.walls:
+            raise ValueError(
+                f"wind_m_s: {self.wind_m_s:g} m/s blows through the open sides; with walls = "
+                "true the box is closed: set walls = false or wind_m_s = 0"
+            )
         return self
 
     def sound_speed_m_s(self) -> float:
@@ -208,6 +219,8 @@ def _check_below_sound(settings: FireSettings) -> None:
             f"flame_speed_m_s: {settings.flame_speed_m_s:g} × (density_ratio "
             f"{settings.density_ratio:g} − 1) expands the burnt gas at {expansion:.3g} m/s, {where}"
         )
+    if settings.wind_m_s > c:
+        raise ValueError(f"wind_m_s: {settings.wind_m_s:g} m/s is {where}")
     for index, source in enumerate(settings.sources):
         if source.jet_m_s > c:
             raise ValueError(f"sources.{index}.jet_m_s: {source.jet_m_s:g} m/s is {where}")

@@ -144,9 +144,13 @@ class FireSolver:
         solid = self._solid_cells()
         side = not settings.walls
         self.open_sides = (side, side, False, True, side, side)  # the floor (y−) is solid
-        self.levels = pressure.hierarchy(self.ops, self.shape, ~solid, self.open_sides)
+        self.wind = settings.wind_m_s / self.h  # cells/s along +x
+        # A wind's x− side is an inflow of given velocity: a Neumann side for the pressure.
+        solved_sides = (side and self.wind == 0.0,) + self.open_sides[1:]
+        self.levels = pressure.hierarchy(self.ops, self.shape, ~solid, solved_sides)
         self.fluid = self.ops.array((~solid).ravel().astype(np.float64))
         self.face_open = [self._face_open(a, solid) for a in range(3)]
+        self.wind_faces = self._wind_faces()
         self.inflow_sign = [self._inflow_sign(a) for a in range(3)]
         self.sources = [self._source_distance(s) for s in settings.sources]
 
@@ -191,6 +195,19 @@ class FireSolver:
             ends[0] = ends[-1] = False
         return self.ops.array(crossing.ravel().astype(np.float64))
 
+    def _wind_faces(self):
+        """1 on the open faces of the x− side where a wind blows in, else 0 (no wind: all 0)."""
+        first = np.zeros(self.face[0].shape)
+        first[0] = 1.0 if self.wind > 0.0 else 0.0
+        return self.ops.array(first.ravel()) * self.face_open[0]
+
+    def _blow(self, velocity: Sequence[Array]) -> list[Array]:
+        """The wind's inflow faces set to the wind (cells/s); the others as given."""
+        velocity = list(velocity)
+        if self.wind > 0.0:
+            velocity[0] = self.ops.select(self.wind_faces > 0.0, self.wind, velocity[0])
+        return velocity
+
     def _inflow_sign(self, axis: int):
         """On the faces of the open sides normal to ``axis``, the sign of a velocity flowing in
         (+1 on the low side, −1 on the high side); 0 on every other face."""
@@ -222,6 +239,7 @@ class FireSolver:
     def initial_state(self) -> FireState:
         ops, n = self.ops, self.cell.size
         velocity = [ops.full(f.size, 0.0) for f in self.face]
+        velocity[0] = velocity[0] + self.wind * self.face_open[0]  # the domain starts in the wind
         return FireState(
             self.velocity_field(velocity),
             self.cell_field(ops.full(n, PHI_LIMIT)),
@@ -290,7 +308,8 @@ class FireSolver:
 
     def _advect_velocity(self, u: StaggeredField, axis: int, step):
         """Face component ``axis`` advected; air entering through an open side *parallel* to it
-        brings no velocity along it (still air far away: ambient 0), while the component normal
+        brings the far field's velocity along it (still air: 0; the wind along x), while the
+        component normal
         to a side keeps its edge value (``_entrainment`` damps it). With the edge value extended
         for every component, a flow started in a box with open sides and no force gained 3–4×
         its kinetic energy in 200 steps (tested: ``test_open_sides_inject_no_energy``)."""
@@ -303,7 +322,7 @@ class FireSolver:
             maccormack=self.settings.maccormack,
             open_sides=self.open_sides,
             points=self.face_points[axis],
-            ambient=0.0,
+            ambient=self.wind if axis == 0 else 0.0,
             ambient_sides=tangential,
         ).values
 
@@ -428,15 +447,15 @@ class FireSolver:
         (Fedkiw et al. 2001 eq. 4–5; Nguyen et al. 2002 §4.2 with the front's expansion in D);
         ``guess``: the pressure to start the solve from (the last step's)."""
         ops = self.ops
-        velocity = [velocity[a] * self.face_open[a] for a in range(3)]
+        velocity = self._blow([velocity[a] * self.face_open[a] for a in range(3)])
         rhs = (target - self._divergence(velocity)) * self.fluid
         p, solve = pressure.solve(
             ops, self.levels, rhs, self.settings.pressure_tolerance, guess=guess
         )
         p_field = self.cell_field(p)
-        velocity = [
-            (velocity[a] - gradient(ops, p_field, a).values) * self.face_open[a] for a in range(3)
-        ]
+        velocity = self._blow(
+            [(velocity[a] - gradient(ops, p_field, a).values) * self.face_open[a] for a in range(3)]
+        )
         residual = (self._divergence(velocity) - target) * self.fluid
         report = StepReport(0.0, solve.iterations, solve.relative_residual, ops.max_abs(residual))
         return velocity, p, report
