@@ -35,15 +35,21 @@ def settings_of(name: str):
     return pool_fire(*POOLS[name]) if name in POOLS else preset(name)
 
 
-def panel(name: str, resolution: int, frames: int, size: tuple[int, int]) -> np.ndarray:
+def last_frame(settings, resolution: int, frames: int, size: tuple[int, int]) -> np.ndarray:
+    """The display pixels of the last of ``frames`` frames of ``settings`` simulated at
+    ``resolution``: T, soot and the CH/C₂ lines, auto-exposed, the volume's own camera."""
     with tempfile.TemporaryDirectory() as tmp:
-        last = simulate(settings_of(name), resolution, frames, tmp, backend="cpu")[-1].path
+        last = simulate(settings, resolution, frames, tmp, backend="cpu")[-1].path
         spec = VolumeSection(path=last, species={"CH": "CH", "C2": "C2"})
         volume = api.volume_from_section(spec, api.Remap(), layout="dense")
         camera = api.camera_from(volume, fov_deg=35.0, frame_content=False)
         settings = api.RenderSettings(width=size[0], height=size[1])
         image = api.render(volume, camera, settings, "cpu")
         return display_pixels(image, api.DisplaySettings())
+
+
+def panel(name: str, resolution: int, frames: int, size: tuple[int, int]) -> np.ndarray:
+    return last_frame(settings_of(name), resolution, frames, size)
 
 
 def main() -> None:
