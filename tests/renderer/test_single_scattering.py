@@ -17,7 +17,7 @@ from incandescent.io.images import read_exr
 from incandescent.renderer.integrators import EmissionAbsorption, SingleScattering
 from incandescent.renderer.lights import (
     DirectionalLight,
-    EnvironmentLight,
+    EnvironmentMap,
     PointLight,
     henyey_greenstein,
 )
@@ -200,8 +200,10 @@ def test_henyey_greenstein_is_normalised_with_mean_cosine_g(g):
         (lambda v: DirectionalLight((0.0, 0.0, 0.0)), "needs a direction"),
         (lambda v: DirectionalLight((0.0, 1.0, 0.0), -5.0), "illuminance_lux must be >= 0"),
         (
-            lambda v: SingleScattering(lights=(EnvironmentLight(),), spectral_bins=4),
-            "grey band only",
+            lambda v: SingleScattering(
+                lights=(EnvironmentMap(np.ones((2, 4, 3), np.float32)),), spectral_bins=4
+            ),
+            "is an RGB image without one",
         ),
         (lambda v: SingleScattering(shadows="exact"), "unknown shadows 'exact'"),
         (lambda v: PointLight((0.0, float("inf"), 0.0)), "needs a position"),

@@ -19,7 +19,7 @@ from incandescent.renderer.integrators.spectral_scattering import (
 )
 from incandescent.renderer.lights import (
     DirectionalLight,
-    EmissionLight,
+    EnvironmentMap,
     PointLight,
     SpotLight,
     henyey_greenstein,
@@ -142,9 +142,8 @@ def test_dr_jit_bins_approach_the_reference_with_emission_point_and_spot_lights(
 @pytest.mark.parametrize(
     ("make", "message"),
     [
-        (lambda: SingleScattering(lights=(EmissionLight(),), spectral_bins=8),
-         "EmissionLight runs in the grey band"),
-        (lambda: MultipleScattering(lights=(SUN,), spectral_bins=8), "max_bounces 64 runs"),
+        (lambda: MultipleScattering(lights=(EnvironmentMap(np.ones((2, 4, 3), np.float32)),),
+                                    spectral_bins=8), "is an RGB image without one"),
         (lambda: _slab(1.0, 5.0), r"scattering_alpha must be in \[0, 4\]"),
     ],
 )  # fmt: skip
@@ -155,11 +154,12 @@ def test_bad_spectral_scattering_is_one_clear_error(make, message):
 
 def test_flags_and_scene_files_scatter_in_spectral_bins(tmp_path):
     """``--spectral-bins 16 --scattering-alpha 4 --sun …`` and ``[volume] scattering_alpha``
-    render the Python volume's image; ``--fire-light`` with bins is one line."""
+    render the Python volume's image; ``--fire-light`` renders in bins; a map with bins is one
+    line."""
     from typer.testing import CliRunner
 
     from incandescent.cli import app
-    from incandescent.io.images import read_exr
+    from incandescent.io.images import read_exr, write_exr
 
     np.save(tmp_path / "gas.npy", synthetic.plume_temperature(16))
     common = ["--width", "10", "--height", "12", "--albedo", "0.5", "--spectral-bins", "16"]
@@ -183,6 +183,11 @@ def test_flags_and_scene_files_scatter_in_spectral_bins(tmp_path):
     a, b = (read_exr(tmp_path / f"{n}.exr")[0][..., :3] for n in "ab")
     np.testing.assert_array_equal(a, b)
     np.testing.assert_allclose(a, python.rgb(), rtol=1e-6, atol=1e-9)
-    bad = runner.invoke(app, [*flags, "--fire-light", "-o", str(tmp_path / "c.exr")])
+    fire = runner.invoke(app, [*flags, "--fire-light", "--spp", "1", "-o", str(tmp_path / "f.exr")])
+    assert fire.exit_code == 0, fire.output
+    assert (read_exr(tmp_path / "f.exr")[0][..., 1] > a[..., 1]).any()  # the fire lights it
+    write_exr(tmp_path / "sky.exr", np.ones((4, 8, 3), np.float32))
+    bad = runner.invoke(app, [*flags, "--environment", str(tmp_path / "sky.exr"), "-o",
+                              str(tmp_path / "c.exr")])  # fmt: skip
     assert bad.exit_code == 2 and len(bad.output.strip().splitlines()) == 1, bad.output
-    assert "runs in the grey band only" in bad.output and not (tmp_path / "c.exr").exists()
+    assert "RGB image without" in bad.output and not (tmp_path / "c.exr").exists()

@@ -190,6 +190,15 @@ class TracedEmissionLight:
         """Traced: Ĵ at p seen along d from one light-sampled and one phase-sampled direction,
         balance-weighted (``u``: :data:`DIMENSIONS` uniforms)."""
         K = self.K
+        out = K.m.Array3f(0.0)
+        for w, weight in self.weighted(p, d, u):
+            out = K.dr.fma(self.radiance_along(p, w), weight, out)
+        return out
+
+    def weighted(self, p, d, u) -> list:
+        """Traced: the pair's two directions, each with its balance-heuristic weight
+        p_HG/(pdf_L + p_HG)."""
+        K = self.K
         dr, m = K.dr, K.m
         g = self.program.g_at(p)
         q = self.point_in_cell(u[0], u[1:4])
@@ -197,11 +206,10 @@ class TracedEmissionLight:
         r = dr.norm(v)
         toward_light = dr.select(r > 1e-6, v / r, d)
         toward_phase = m.Array3f(*sample_henyey_greenstein(u[4], u[5], d, g, self.ops))
-        out = m.Array3f(0.0)
+        out = []
         for w in (toward_light, toward_phase):
             phase = henyey_greenstein(dr.dot(w, d), g)
-            weight = phase / (self.pdf_light(p, w) + phase)
-            out = dr.fma(self.radiance_along(p, w), weight, out)
+            out.append((w, phase / (self.pdf_light(p, w) + phase)))
         return out
 
     def point_in_cell(self, u_cell, u_point):
@@ -303,17 +311,23 @@ class ReferenceEmissionLight:
         self.program, self.inputs, self.cells = program, program.inputs, cells
 
     def pair(self, p, d, u) -> NDArray:
-        """Ĵ at samples p (m, 3) seen along unit d (m, 3), from uniforms ``u`` (float64)."""
+        """Ĵ at samples p (m, 3) seen along unit d (m, 3), from uniforms ``u`` (float64): XYZ,
+        or (spectral programs) per wavelength."""
+        return sum(
+            self.radiance_along(p, w) * weight[:, None] for w, weight in self.weighted(p, d, u)
+        )
+
+    def weighted(self, p, d, u) -> list[tuple[NDArray, NDArray]]:
+        """The pair's two directions (m, 3), each with its balance-heuristic weights (m,)."""
         g = self.program.g_at(p)
         v = self.point_in_cell(u[0], np.stack(u[1:4], axis=1)) - p
         r = np.linalg.norm(v, axis=1)
         toward_light = np.where((r > 1e-6)[:, None], v / np.maximum(r, 1e-300)[:, None], d)
         toward_phase = np.stack(sample_henyey_greenstein(u[4], u[5], d.T, g, NUMPY_OPS), axis=1)
-        out = np.zeros_like(p)
+        out = []
         for w in (toward_light, toward_phase):
             phase = henyey_greenstein(np.einsum("ij,ij->i", w, d), g)
-            weight = phase / (self.pdf_light(p, w) + phase)
-            out += self.radiance_along(p, w) * weight[:, None]
+            out.append((w, phase / (self.pdf_light(p, w) + phase)))
         return out
 
     def point_in_cell(self, u_cell, u_point) -> NDArray:

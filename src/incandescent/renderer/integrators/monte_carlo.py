@@ -47,9 +47,9 @@ from incandescent.renderer.lights import henyey_greenstein
 #: Uniforms of one next-event estimate: the emission light's pair, then the sky's direction.
 NEE_DIMENSIONS = el.DIMENSIONS + 2
 #: Uniforms of one path vertex: its next events, the phase direction (2), the free flight,
-#: the light-guided direction (a cell and a point in it: 4), the choice between the two, and
-#: Russian roulette.
-VERTEX_DIMENSIONS = NEE_DIMENSIONS + 9
+#: the light-guided direction (a cell and a point in it: 4), the choice between the two,
+#: Russian roulette, and (spectral bins) the band whose extinction samples the free flight.
+VERTEX_DIMENSIONS = NEE_DIMENSIONS + 10
 #: With the fire's light, the probability that a path's next direction is guided toward it.
 GUIDE = 0.5
 #: Russian roulette spares a path until its weight falls below this.
@@ -216,11 +216,18 @@ class ReferenceMonteCarlo:
         self.sky = None if sky_xyz is None else np.asarray(sky_xyz, dtype=np.float64)
         self.key = el.hash_key(seed)
 
+    #: Values per sample: XYZ (spectral estimators: one per wavelength).
+    width = 3
+
     def estimate(self, p, sigma_s, d, ray_index, step) -> NDArray:
         """σ_s × the mean over ``spp`` samples at samples p (m, 3) of rays with unit directions
         d, camera-ray indices and steps, XYZ per m, (m, 3)."""
+        return self.total(p, d, ray_index, step) * (sigma_s / self.spp)[:, None]
+
+    def total(self, p, d, ray_index, step) -> NDArray:
+        """The sum over ``spp`` samples of the sampled part of J, (m, :attr:`width`)."""
         ray_index, step = ray_index.astype(np.uint32), step.astype(np.uint32)
-        out = np.zeros((len(p), 3))
+        out = np.zeros((len(p), self.width))
         for j in range(self.spp):
             sample = np.full(len(p), j, dtype=np.uint32)
             u = [
@@ -229,7 +236,7 @@ class ReferenceMonteCarlo:
             out += self.next_events(p, d, u, (ray_index, step, sample))
             if self.max_bounces >= 2:
                 out += self.path(p, d, (ray_index, step, sample))
-        return out * (sigma_s / self.spp)[:, None]
+        return out
 
     def next_events(self, p, d, u, seeds, bounce=None) -> NDArray:
         out = np.zeros((len(p), 3))

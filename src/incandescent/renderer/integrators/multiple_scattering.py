@@ -25,7 +25,7 @@ MAX_BOUNCES = 1024
 @dataclass(frozen=True)
 class MultipleScattering(SingleScattering):
     """Emission–absorption plus orders 1 … ``max_bounces`` of the scattering of ``lights``
-    (grey band); ``spp`` paths per scattering sample of a camera ray."""
+    (grey, or spectral bins); ``spp`` paths per scattering sample of a camera ray."""
 
     max_bounces: int = 64  # type: ignore[misc]
 

@@ -1,4 +1,5 @@
-"""Single scattering of directional lights, with emission–absorption (grey band).
+"""Single scattering of directional lights, with emission–absorption (grey band; spectral bins:
+``spectral_scattering``).
 
 The medium absorbs with κ, scatters with σ_s (``Volume.scattering_per_m``, Henyey–Greenstein
 phase with ``Volume.phase_g``) and extinguishes with σ_t = κ + σ_s. Along a camera ray, the
@@ -32,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from incandescent import _validate
+from incandescent.emission.blackbody import blackbody_lut
 from incandescent.renderer import rays
 from incandescent.renderer.backends.camera_rays import clip_to_box
 from incandescent.renderer.backends.common import THIN_STEP, Segment, trilinear
@@ -72,7 +74,7 @@ SPECTRAL: dict[str, Any] = {}
 
 @dataclass(frozen=True)
 class SingleScattering(ea.EmissionAbsorption):
-    """Emission–absorption plus the single scattering of ``lights`` (grey band only). With an
+    """Emission–absorption plus the single scattering of ``lights`` (grey or binned). With an
     :class:`EmissionLight`, each scattering sample of a camera ray averages ``spp`` Monte Carlo
     sample pairs of the volume's own emission (``emission_light``); the other lights are
     deterministic. The Monte Carlo marches (the fire's light along its lines, a sky's
@@ -150,17 +152,12 @@ class SingleScattering(ea.EmissionAbsorption):
 
 
 def _check_spectral(integrator: SingleScattering) -> None:
-    """Spectral bins scatter the directional, point and spot lights once: the Monte Carlo
-    lights and paths are grey."""
-    if not integrator.spectral_bins:
-        return
-    sampled = [x for x in integrator.lights if not isinstance(x, (DirectionalLight, PointLight))]
-    if sampled or integrator.max_bounces >= 2:
-        bounces = f"max_bounces {integrator.max_bounces}"
-        what = type(sampled[0]).__name__ if sampled else bounces
+    """Spectral bins carry every light but a lat-long map: an RGB image has no spectrum."""
+    maps = [x for x in integrator.lights if isinstance(x, EnvironmentMap)]
+    if integrator.spectral_bins and maps:
         raise ValueError(
-            f"spectral bins scatter directional, point and spot lights once (single "
-            f"scattering); {what} runs in the grey band only: use spectral_bins 0"
+            f"spectral bins need each light's spectrum; {maps[0]!r} is an RGB image without "
+            "one: use spectral_bins 0, or a uniform sky (EnvironmentLight)"
         )
 
 
@@ -186,13 +183,31 @@ def _paths(integrator) -> bool:
     return integrator.max_bounces >= 2 and bool(integrator.lights)
 
 
+def _emitting_cells(integrator, volume, lut) -> LightCells | None:
+    """The emission light's cells of power (κ·Y(T) from ``lut``; in spectral bins from the
+    whole blackbody, not the first bin's table), or None without an emitting one."""
+    if not integrator.emission_light:
+        return None
+    if integrator.spectral_bins:
+        lut = blackbody_lut(integrator.emission.observer, integrator.emission.constants)
+    cells = LightCells.of(volume, lut)
+    return cells if cells.emits else None
+
+
+def _skies(integrator) -> list[EnvironmentLight]:
+    """The uniform skies among the lights."""
+    return [light for light in integrator.lights if isinstance(light, EnvironmentLight)]
+
+
 def _sampled_lights(integrator, volume, lut) -> tuple[LightCells | None, NDArray | None]:
-    """(the emission light's cells if it emits, the sky's total XYZ radiance) or Nones."""
-    cells = LightCells.of(volume, lut) if integrator.emission_light else None
-    skies = [light.xyz() for light in integrator.lights if isinstance(light, EnvironmentLight)]
-    return (cells if cells is not None and cells.emits else None), (
-        np.sum(skies, axis=0) if skies else None
-    )
+    """(the emission light's cells if it emits, the skies' total XYZ radiance) or Nones."""
+    skies = [light.xyz() for light in _skies(integrator)]
+    return _emitting_cells(integrator, volume, lut), (np.sum(skies, axis=0) if skies else None)
+
+
+def path_step(step_voxels: float, integrator) -> np.float32:
+    """The Monte Carlo marches' step, voxels: ``path_step_voxels``, at least the render's."""
+    return np.float32(max(float(step_voxels), integrator.path_step_voxels))
 
 
 def _in_voxels(light: FixedLight, volume) -> tuple[float, float, float]:
@@ -227,21 +242,25 @@ class _Traced(ea._Traced):
         self.g = g if isinstance(g, float) else None
         self.g_grid = None if self.g is not None else kernel.grid(("phase_g",), g)
         #: the step of the Monte Carlo marches, voxels
-        self.path_dt = np.float32(max(float(kernel.dt), integrator.path_step_voxels))
+        self.path_dt = path_step(kernel.dt, integrator)
         lights = _fixed(integrator.lights)
         self.lights = [(light, _in_voxels(light, vol), light.xyz()) for light in lights]
-        self.sampled = None
-        cells, sky = _sampled_lights(integrator, vol, kernel.first_table)
-        maps = _maps(integrator)
-        if cells is not None or sky is not None or maps or _paths(integrator):
-            emitter = None if cells is None else TracedEmissionLight(self, cells)
-            skies = [TracedEnvironmentMap(self, sky_map) for sky_map in maps]
-            self.sampled = TracedMonteCarlo(
-                self, (emitter, sky, skies), integrator.spp, integrator.max_bounces, kernel.seed
-            )
+        self.sampled = self.monte_carlo(integrator)
         self.shadow_grids = None
         if integrator.shadows == "grid":
             self.shadow_grids = [self.transmittance_grid(i) for i in range(len(self.lights))]
+
+    def monte_carlo(self, integrator) -> TracedMonteCarlo | None:
+        """The estimator of the sampled lights and paths, or None without them."""
+        K = self.kernel
+        cells, sky = _sampled_lights(integrator, K.volume, K.first_table)
+        maps = _maps(integrator)
+        if cells is None and sky is None and not maps and not _paths(integrator):
+            return None
+        emitter = None if cells is None else TracedEmissionLight(self, cells)
+        skies = [TracedEnvironmentMap(self, sky_map) for sky_map in maps]
+        lights = (emitter, sky, skies)
+        return TracedMonteCarlo(self, lights, integrator.spp, integrator.max_bounces, K.seed)
 
     def g_at(self, p, c=None):
         """Traced: the Henyey–Greenstein g at positions p (or trilinear corners c): the
@@ -419,9 +438,7 @@ class _Reference(_ReferenceLights, ea._Reference):
     def __init__(self, inputs, integrator: SingleScattering) -> None:
         super().__init__(inputs)
         vol = inputs.volume
-        self.path_dt = float(
-            np.float32(max(inputs.settings.step_voxels, integrator.path_step_voxels))
-        )
+        self.path_dt = float(path_step(inputs.settings.step_voxels, integrator))
         lights = _fixed(integrator.lights)
         self.lights = [(light, np.asarray(_in_voxels(light, vol)), light.xyz()) for light in lights]
         self.sampled = None

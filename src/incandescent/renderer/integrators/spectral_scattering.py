@@ -11,8 +11,8 @@ with Tr_l,λ = exp(−(k_λ τ_κ + s_λ τ_σ)): one march toward each light gi
 depths τ_κ = ∫κ ds and τ_σ = ∫σ_s ds, and every wavelength its transmittance from them
 (k_λ, s_λ the two laws' scales). Dr.Jit carries the bins of ``spectra.bins`` (each light's
 spectrum summed over a bin, one scale per bin at its Y-weighted wavelength); the float64
-reference carries every 1 nm sample of the CIE functions, the bins' limit. Directional, point
-and spot lights only: the Monte Carlo lights (the fire's own, skies) are grey.
+reference carries every 1 nm sample of the CIE functions, the bins' limit. The Monte Carlo
+lights (the fire's own, skies) and paths run per band too (``spectral_monte_carlo``).
 """
 
 from __future__ import annotations
@@ -24,7 +24,13 @@ from incandescent.constants import K_M
 from incandescent.renderer.backends.common import THIN_STEP, Segment, trilinear
 from incandescent.renderer.integrators import emission_absorption as ea
 from incandescent.renderer.integrators import single_scattering as ss
-from incandescent.renderer.lights import DirectionalLight, SpotLight, henyey_greenstein
+from incandescent.renderer.integrators import spectral_monte_carlo as smc
+from incandescent.renderer.lights import (
+    DirectionalLight,
+    EnvironmentLight,
+    SpotLight,
+    henyey_greenstein,
+)
 from incandescent.spectra.bins import REFERENCE_NM, SpectralBins
 from incandescent.spectra.cmf import cmfs
 from incandescent.spectra.planck import planck_radiance
@@ -37,16 +43,24 @@ def spectral_scale(wavelength_nm, exponent: float) -> NDArray[np.float64]:
 
 def light_spectrum(light, wavelength_nm, observer: str) -> NDArray[np.float64]:
     """The light's spectral amount per nm at the CIE samples — W·m⁻²·nm⁻¹ of a directional
-    light, W·sr⁻¹·nm⁻¹ of a point light — a blackbody's shape (or flat), scaled so that
-    K_m Σ E_λ ȳ(λ) Δλ is its illuminance in lux (intensity in cd)."""
+    light, W·sr⁻¹·nm⁻¹ of a point light, W·sr⁻¹·m⁻²·nm⁻¹ of a uniform sky — a blackbody's shape
+    (or flat), scaled so that K_m Σ E_λ ȳ(λ) Δλ is its illuminance in lux (intensity in cd,
+    luminance in cd/m²)."""
     cmf = cmfs(observer)
     if light.temperature_K is None:
         shape = np.ones_like(cmf.wavelength_nm)
     else:
         shape = planck_radiance(cmf.wavelength_nm, float(light.temperature_K))
-    amount = light.illuminance_lux if isinstance(light, DirectionalLight) else light.intensity_cd
+    amount = _amount(light)
     luminous = K_M * cmf.step_nm * float(np.sum(shape * cmf.xyz_bar[:, 1]))
     return shape * (amount / luminous)
+
+
+def _amount(light) -> float:
+    """A light's photometric amount: lux (directional), cd/m² (a sky) or cd (point, spot)."""
+    if isinstance(light, DirectionalLight):
+        return light.illuminance_lux
+    return light.luminance_cd_m2 if isinstance(light, EnvironmentLight) else light.intensity_cd
 
 
 def light_bins(light, bins: SpectralBins, observer: str) -> NDArray[np.float64]:
@@ -76,16 +90,32 @@ class TracedSpectral(ss._Traced):
         observer = integrator.emission.observer
         self.light_xyz = [light_bins(light, bins, observer) for light, _, _ in self.lights]
 
+    def monte_carlo(self, integrator) -> smc.TracedSpectralMonteCarlo | None:
+        """The sampled lights and paths per band, or None without them."""
+        K = self.kernel
+        cells = ss._emitting_cells(integrator, K.volume, K.first_table)
+        skies = ss._skies(integrator)
+        if cells is None and not skies and not ss._paths(integrator):
+            return None
+        emitter = None if cells is None else smc.TracedSpectralEmissionLight(self, cells)
+        observer = integrator.emission.observer
+        sky = sum(light_bins(x, K.bands.bins, observer) for x in skies) if skies else None
+        lights = (emitter, sky)
+        return smc.TracedSpectralMonteCarlo(
+            self, lights, integrator.spp, integrator.max_bounces, K.seed
+        )
+
     def transmittance_grid(self, index: int):
         """Light ``index``'s two optical depths (κ, σ_s) marched from every voxel centre."""
         return self.from_centres(index, self.optical_depths_along)
 
-    def optical_depths_along(self, p, d, length):
-        """Traced: (∫κ ds, ∫σ_s ds) from p along d for ``length`` voxels (midpoint rule at the
-        render's step), stopping once every band's optical depth passes the shadow limit."""
+    def optical_depths_along(self, p, d, length, dt=None):
+        """Traced: (∫κ ds, ∫σ_s ds) from p along d for ``length`` voxels (midpoint rule at
+        steps of ``dt`` voxels, the render's by default), stopping once every band's optical
+        depth passes the shadow limit."""
         K = self.kernel
         dr, m = K.dr, K.m
-        dt, most = K.dt, self.most
+        dt, most = (K.dt if dt is None else dt), self.most
 
         def cond(k, tau_k, tau_s):
             return (k * dt < length) & (most * (tau_k + tau_s) < ss.MAX_SHADOW_DEPTH)
@@ -127,6 +157,8 @@ class TracedSpectral(ss._Traced):
         K = self.kernel
         dr = K.dr
         lit = self.lit_bands(K.position, c, K.ray_direction)
+        if self.sampled is not None:
+            lit = smc._add(lit, self.sampled.estimate(self.sigma_s))
         scale = None if K.scale is None else K.trilinear(K.scale, c)
         updated = []
         for band, (ks, sigma_scale, tr_b) in enumerate(
@@ -160,11 +192,44 @@ class ReferenceSpectral(ss._ReferenceLights, ea._SpectralReference):
                                                                            observer))
             for light in ss._fixed(integrator.lights)
         ]  # fmt: skip
+        self.path_dt = float(ss.path_step(inputs.settings.step_voxels, integrator))
+        bins = inputs.bands.bins
+        self.bin_kappa = bins.kappa_scale
+        self.bin_sigma = spectral_scale(bins.centre_nm, vol.scattering_alpha)
+        self.sampled = self.monte_carlo(integrator)
         self.shadow_grids: list[tuple[NDArray, NDArray]] | None = None
         if integrator.shadows == "grid":
             centres = np.indices(vol.shape, dtype=np.float64).reshape(3, -1).T + 0.5
             pairs = [self._depths(i, centres) for i in range(len(self.lights))]
             self.shadow_grids = [(k.reshape(vol.shape), s.reshape(vol.shape)) for k, s in pairs]
+
+    def monte_carlo(self, integrator) -> smc.ReferenceSpectralMonteCarlo | None:
+        """The sampled lights and paths at every nanometre, or None without them."""
+        inputs = self.inputs
+        cells = ss._emitting_cells(integrator, inputs.volume, inputs.lut)
+        skies = ss._skies(integrator)
+        if cells is None and not skies and not ss._paths(integrator):
+            return None
+        emitter = None if cells is None else smc.ReferenceSpectralEmissionLight(self, cells)
+        observer, wavelength = integrator.emission.observer, self.cmf.wavelength_nm
+        sky = sum(light_spectrum(x, wavelength, observer) for x in skies) if skies else None
+        seed = inputs.settings.seed
+        return smc.ReferenceSpectralMonteCarlo(
+            self, (emitter, sky), integrator.spp, integrator.max_bounces, seed
+        )
+
+    def emitted_nm(self, p: NDArray, kappa: NDArray) -> NDArray:
+        """η_λ (per m, (m, 471)) at positions p where the absorption at 550 nm is ``kappa``,
+        emission scale included."""
+        inputs, vol = self.inputs, self.inputs.volume
+        temp, sampled = trilinear(vol.temperature_K, p), ea._sampled(inputs, p)
+        emits = ea._present(kappa, sampled) & (temp >= inputs.lut.t_min_K)
+        kappa_nm = kappa[:, None] * self.kappa_scale
+        eta, per_metre = self.eta(kappa_nm, temp, sampled, emits)
+        eta = eta if per_metre else eta * kappa_nm
+        if vol.emission_scale is not None:
+            eta *= trilinear(vol.emission_scale, p)[:, None]
+        return eta
 
     def _depths(self, index: int, p: NDArray) -> tuple[NDArray, NDArray]:
         d, length, _ = self.geometry(index, p)
@@ -201,6 +266,12 @@ class ReferenceSpectral(ss._ReferenceLights, ea._SpectralReference):
         if lit.any() and self.lights:
             view = inputs.rays.direction[r[lit]]
             eta[lit] += sigma_nm[lit] * self.lit_nm(p[lit], view)
+        if lit.any() and self.sampled is not None:
+            rows = r[lit]
+            view, index = inputs.rays.direction[rows], inputs.rays.ray_index[rows]
+            assert segment.k is not None, "the reference march numbers its segments"
+            total = self.sampled.total(p[lit], view, index, segment.k[lit])
+            eta[lit] += sigma_nm[lit] * total * (1.0 / self.sampled.spp)
         sigma_t = kappa_nm + sigma_nm
         x = sigma_t * ds_m[:, None]
         weight = np.where(x > 0, -np.expm1(-x) / np.where(x > 0, sigma_t, 1.0), ds_m[:, None])
