@@ -12,6 +12,7 @@ import pytest
 from scipy.ndimage import gaussian_filter
 
 from incandescent.simulation import FireSettings, FireSolver, preset
+from incandescent.simulation.pool import pool_fire
 
 QUIET = {"sources": (), "gravity_m_s2": 0.0, "vorticity": 0.0, "noise": 0.0}
 
@@ -106,19 +107,31 @@ def _speed_bound_m_s(settings) -> float:
     """The fastest gas the presets' physics allows (m/s): a parcel at t_max_K rising the
     domain's height H from rest under the ideal gas's buoyancy, √(2 g (1 − T_air/T_max) H) (energy:
     no parcel gains more than its buoyant potential energy), plus the fastest jet and the
-    front's expansion speed (ρ_f/ρ_h − 1)·S, which push gas without buoyancy."""
+    front's expansion speed (ρ_f/ρ_h − 1)·S, which push gas without buoyancy, and the wind
+    that carries it all."""
     s, height = settings, settings.domain_m[1]
     rise = math.sqrt(2.0 * s.buoyancy_m_s2(s.t_max_K) * height)
     jet = max((source.jet_m_s for source in s.sources), default=0.0)
-    return rise + jet + (s.density_ratio - 1.0) * s.flame_speed_m_s
+    return rise + jet + (s.density_ratio - 1.0) * s.flame_speed_m_s + s.wind_m_s
+
+
+#: The presets, and pool fires still and in a wind, by the name the tests give them.
+RUNS = {
+    "candle": lambda: preset("candle"),
+    "torch": lambda: preset("torch"),
+    "campfire": lambda: preset("campfire"),
+    "explosion": lambda: preset("explosion"),
+    "pool 0.5 m 50 kW": lambda: pool_fire(0.5, 50.0),
+    "pool 0.5 m 50 kW, wind 2 m/s": lambda: pool_fire(0.5, 50.0, changes={"wind_m_s": 2.0}),
+}
 
 
 def _run_preset(name: str, seconds: float, resolution: int) -> tuple[object, list[dict]]:
-    """(settings, one diagnostics record per frame) of ``seconds`` of preset ``name``."""
+    """(settings, one diagnostics record per frame) of ``seconds`` of run ``name`` (RUNS)."""
     from incandescent.simulation.diagnostics import frame_record
     from incandescent.simulation.run import advance_frame
 
-    solver = FireSolver(preset(name), resolution, "cpu")
+    solver = FireSolver(RUNS[name](), resolution, "cpu")
     state, records = solver.initial_state(), []
     for frame in range(1, round(seconds * solver.settings.fps) + 1):
         state, steps = advance_frame(solver, state)
@@ -127,7 +140,7 @@ def _run_preset(name: str, seconds: float, resolution: int) -> tuple[object, lis
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["candle", "torch", "campfire", "explosion"])
+@pytest.mark.parametrize("name", list(RUNS))
 def test_every_preset_stays_bounded_for_30_s(name):
     """30 s of simulated time at 32 cells: every frame's max |u| within twice the speed of the
     physics' energy bound (``_speed_bound_m_s``: 2.2, 6.8, 7.4, 36.3 m/s for the candle,
