@@ -1,7 +1,8 @@
 """Render the pictures of docs/scattering.md: the fire demo dark and sunlit; the campfire and
 explosion demos with their smoke lit (by their own fire, a sky and a sun) beside the same frame
 with ``--max-bounces 0``, each pair at one exposure; pbrt-v4's fire-lit cloud beside ours; a
-shadow under a point sun and a sun disk; grey and Rayleigh scattering in spectral bins.
+shadow under a point sun and a sun disk; grey and Rayleigh scattering in spectral bins, of a sun
+and of the explosion's own fire and sky.
 
     python scripts/scattering_gallery.py --out docs          # docs/scattering/*.png
     python scripts/scattering_gallery.py --out /tmp/x --quick
@@ -69,6 +70,20 @@ def lit_demo(name: str, size: int) -> dict[str, tuple[inc.HDRImage, DisplaySetti
     return {f"{name}_dark": (dark, display), f"{name}_lit": (bright, display)}
 
 
+def spectral_demo(name: str, size: int) -> dict[str, tuple[inc.HDRImage, DisplaySettings | None]]:
+    """Demo ``name`` lit (its fire, sky and sun, one order) in 16 spectral bins with σ_s ∝ λ^−4
+    (β = 4), at the grey lit image's exposure: its fire's light reddened by soot, its sky's
+    light scattered blue."""
+    scene = SCENES[name]
+    camera = scene.camera() if scene.camera else None
+    settings = inc.RenderSettings(width=size, height=size)
+    lit, integrator = api.demo_lighting(name, api.demo_volume(name))
+    grey = inc.render(lit, camera, settings, integrator=integrator)
+    binned = replace(integrator, spectral_bins=16)
+    image = inc.render(lit.replace(scattering_alpha=4.0), camera, settings, integrator=binned)
+    return {f"{name}_rayleigh": (image, _fixed(grey, scene.display))}
+
+
 def _shadow_scene(n: int) -> inc.Volume:
     """A thin smoke floor under a dense, dark ball (the shadow caster), n voxels of 1 cm wide."""
     x, y, z = (np.indices((n, (3 * n) // 4, n)) + 0.5) / n
@@ -133,12 +148,13 @@ def main(argv: Sequence[str] | None = None) -> list[Path]:
     page = PageImages(args.out, "scattering", "scripts/scattering_gallery.py")
     size = 32 if args.quick else 320
     images = {**fire_pair(size), **lit_demo("campfire", size), **lit_demo("explosion", size),
-              **pbrt_pair(args.quick), **shadow_pair(size), **rayleigh_pair(size)}  # fmt: skip
+              **pbrt_pair(args.quick), **shadow_pair(size), **rayleigh_pair(size),
+              **spectral_demo("explosion", size)}  # fmt: skip
     written = [
         page.add(name, display_pixels(image, display), name.replace("_", ", "))
         for name, (image, display) in images.items()
     ]
-    for name in ("fire_sunlit", "campfire_lit", "explosion_lit", "d2_ours"):
+    for name in ("fire_sunlit", "campfire_lit", "explosion_lit", "explosion_rayleigh", "d2_ours"):
         print(f"{name}: {images[name][0].metadata['seconds']:.2f} s march")
     return written
 

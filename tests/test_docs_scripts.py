@@ -65,18 +65,21 @@ def test_blackbody_strip_image(blackbody_docs):
 
 def test_scattering_gallery_renders_the_lit_smoke_brighter(tmp_path):
     """Each pair shares one exposure, so lit smoke is brighter than dark smoke; ours and pbrt's
-    fire-lit cloud look alike at one exposure; Rayleigh's smoke is bluer than grey smoke."""
+    fire-lit cloud look alike at one exposure; Rayleigh's smoke is bluer than grey smoke, under a
+    sun and under the explosion's own fire and sky."""
     written = _load_script("scattering_gallery").main(["--out", str(tmp_path), "--quick"])
     names = [p.name.removesuffix(".png") for p in written]
     assert names == ["fire_dark", "fire_sunlit", "campfire_dark", "campfire_lit",
                      "explosion_dark", "explosion_lit", "d2_ours", "d2_pbrt", "shadow_point",
-                     "shadow_disk", "fire_grey", "fire_rayleigh"]  # fmt: skip
+                     "shadow_disk", "fire_grey", "fire_rayleigh", "explosion_rayleigh"]  # fmt: skip
     pixels = {
         n: np.asarray(Image.open(p), dtype=float) for n, p in zip(names, written, strict=True)
     }
     for dark, lit in (("fire_dark", "fire_sunlit"), ("explosion_dark", "explosion_lit")):
         assert pixels[lit].mean() > pixels[dark].mean()  # the smoke is lit
     grey, rayleigh = pixels["fire_grey"], pixels["fire_rayleigh"]
+    assert (rayleigh[..., 2] > rayleigh[..., 0]).sum() > (grey[..., 2] > grey[..., 0]).sum()
+    grey, rayleigh = pixels["explosion_lit"], pixels["explosion_rayleigh"]
     assert (rayleigh[..., 2] > rayleigh[..., 0]).sum() > (grey[..., 2] > grey[..., 0]).sum()
     ours, theirs = pixels["d2_ours"].mean(), pixels["d2_pbrt"].mean()
     assert abs(ours / theirs - 1) < 0.1
