@@ -17,7 +17,6 @@ from incandescent.io.images import read_exr
 from incandescent.renderer.integrators import EmissionAbsorption, SingleScattering
 from incandescent.renderer.lights import (
     DirectionalLight,
-    EnvironmentMap,
     PointLight,
     henyey_greenstein,
 )
@@ -199,12 +198,6 @@ def test_henyey_greenstein_is_normalised_with_mean_cosine_g(g):
         (lambda v: v.with_scattering(1.0, albedo=0.5), "not both"),
         (lambda v: DirectionalLight((0.0, 0.0, 0.0)), "needs a direction"),
         (lambda v: DirectionalLight((0.0, 1.0, 0.0), -5.0), "illuminance_lux must be >= 0"),
-        (
-            lambda v: SingleScattering(
-                lights=(EnvironmentMap(np.ones((2, 4, 3), np.float32)),), spectral_bins=4
-            ),
-            "is an RGB image without one",
-        ),
         (lambda v: SingleScattering(shadows="exact"), "unknown shadows 'exact'"),
         (lambda v: PointLight((0.0, float("inf"), 0.0)), "needs a position"),
         (lambda v: PointLight((0.0, 0.0, 0.0), -1.0), "intensity_cd must be >= 0"),

@@ -320,7 +320,7 @@ INTEGRATOR = (
          "[integrator] type) [emission_absorption; single_scattering with lights].",
          "integrator.type"),
     Flag("spectral_bins", int, "N spectral bins for soot's κ_λ and the scattering's σ_s,λ "
-         "(emission, every light but an --environment FILE.exr, all orders; 0: grey) [0].",
+         "(emission, every light, all orders; 0: grey) [0].",
          "integrator.spectral_bins"),
     Flag("sodium", float, "Constant sodium fraction 0..1 (species Na)."),
     Flag("paper_exponent", float, "Paper mode: brightness ∝ T^exponent [1.5].",

@@ -83,6 +83,21 @@ class TracedEnvironmentMap:
 
     def event(self, p, d, u):
         """Traced: Ĵ of the map at p seen along d (``u``: :data:`MAP_DIMENSIONS` uniforms)."""
+        K = self.K
+        dr, m = K.dr, K.m
+        out = m.Array3f(0.0)
+        for w, index, weight in self.weighted(p, d, u):
+            _, t_exit = clip_to_box(dr, m, p, w, K.shape)
+            shadow = self.program.transmittance_along(
+                p, w, dr.maximum(t_exit, 0.0), self.program.path_dt
+            )
+            radiance = m.Array3f(*(dr.gather(m.Float, c, index) for c in self.xyz))
+            out = dr.fma(radiance, weight * shadow, out)
+        return out
+
+    def weighted(self, p, d, u) -> list:
+        """Traced: the map-sampled and the phase-sampled directions, each with its pixel and
+        its balance-heuristic weight p_HG/(pdf_M + p_HG)."""
         K, t = self.K, self.tables
         dr, m = K.dr, K.m
         last = len(t.cdf) - 1
@@ -93,19 +108,14 @@ class TracedEnvironmentMap:
         )
         g = self.program.g_at(p)
         toward_phase = m.Array3f(*el.sample_henyey_greenstein(u[3], u[4], d, g, self.ops))
-        out = m.Array3f(0.0)
+        out = []
         for w in (toward_map, toward_phase):
             index, sin = self.pixel(w)
             pdf = (
                 dr.gather(m.Float, self.probability, index) * t.pdf_factor() / dr.maximum(sin, 1e-8)
             )
             phase = henyey_greenstein(dr.dot(w, d), g)
-            _, t_exit = clip_to_box(dr, m, p, w, K.shape)
-            shadow = self.program.transmittance_along(
-                p, w, dr.maximum(t_exit, 0.0), self.program.path_dt
-            )
-            radiance = m.Array3f(*(dr.gather(m.Float, c, index) for c in self.xyz))
-            out = dr.fma(radiance, phase * shadow / (pdf + phase), out)
+            out.append((w, index, phase / (pdf + phase)))
         return out
 
 
@@ -117,6 +127,18 @@ class ReferenceEnvironmentMap:
         self.tables = MapTables(sky)
 
     def event(self, p, d, u) -> NDArray:
+        shape = np.asarray(self.inputs.volume.shape, dtype=np.float64)
+        out = np.zeros((len(p), 3))
+        for w, index, weight in self.weighted(p, d, u):
+            _, t_exit = rays.clip_to_box(p, w, shape)
+            shadow = self.program.transmittance_along(
+                p, w, np.maximum(t_exit, 0.0), self.program.path_dt
+            )
+            out += self.tables.xyz[index] * (weight * shadow)[:, None]
+        return out
+
+    def weighted(self, p, d, u) -> list[tuple[NDArray, NDArray, NDArray]]:
+        """The map-sampled and phase-sampled directions (m, 3), their pixels and weights."""
         t, g = self.tables, self.program.g_at(p)
         i = np.minimum(np.searchsorted(t.cdf, u[0], side="right"), t.cdf.size - 1)
         col, row = i % t.width, i // t.width
@@ -124,8 +146,7 @@ class ReferenceEnvironmentMap:
             direction((col + u[1]) / t.width, (row + u[2]) / t.height, el.NUMPY_OPS), 1
         )
         toward_phase = np.stack(el.sample_henyey_greenstein(u[3], u[4], d.T, g, el.NUMPY_OPS), 1)
-        shape = np.asarray(self.inputs.volume.shape, dtype=np.float64)
-        out = np.zeros((len(p), 3))
+        out = []
         for w in (toward_map, toward_phase):
             uu, vv, sin = coordinates(w.T, el.NUMPY_OPS)
             col_w = np.minimum((np.maximum(uu * t.width, 0)).astype(np.int64), t.width - 1)
@@ -133,9 +154,5 @@ class ReferenceEnvironmentMap:
             index = row_w * t.width + col_w
             pdf = t.probability[index] * t.pdf_factor() / np.maximum(sin, 1e-8)
             phase = henyey_greenstein(np.einsum("ij,ij->i", w, d), g)
-            _, t_exit = rays.clip_to_box(p, w, shape)
-            shadow = self.program.transmittance_along(
-                p, w, np.maximum(t_exit, 0.0), self.program.path_dt
-            )
-            out += t.xyz[index] * (phase * shadow / (pdf + phase))[:, None]
+            out.append((w, index, phase / (pdf + phase)))
         return out

@@ -99,7 +99,6 @@ class SingleScattering(ea.EmissionAbsorption):
                     f"EnvironmentLight or EnvironmentMap; got {light!r}"
                 )
         object.__setattr__(self, "lights", lights)
-        _check_spectral(self)
         _validate.choice(self.shadows, "shadows", SHADOWS)
         spp = self.spp
         integer = isinstance(spp, (int, np.integer)) and not isinstance(spp, bool)
@@ -149,16 +148,6 @@ class SingleScattering(ea.EmissionAbsorption):
         if not inputs.bands.grey:
             return SPECTRAL["reference"](inputs, self)
         return _Reference(inputs, self)
-
-
-def _check_spectral(integrator: SingleScattering) -> None:
-    """Spectral bins carry every light but a lat-long map: an RGB image has no spectrum."""
-    maps = [x for x in integrator.lights if isinstance(x, EnvironmentMap)]
-    if integrator.spectral_bins and maps:
-        raise ValueError(
-            f"spectral bins need each light's spectrum; {maps[0]!r} is an RGB image without "
-            "one: use spectral_bins 0, or a uniform sky (EnvironmentLight)"
-        )
 
 
 def _fixed(lights: tuple[Light, ...]) -> list[FixedLight]:

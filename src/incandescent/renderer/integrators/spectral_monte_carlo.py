@@ -1,10 +1,12 @@
 """The Monte Carlo lights and paths of ``monte_carlo`` in spectral bins: the fire's own light,
-uniform skies and multiple scattering carried per band (Dr.Jit) or per nanometre (float64).
+uniform skies, lat-long maps and multiple scattering carried per band (Dr.Jit) or per nanometre
+(float64).
 
 Each light's radiance is carried per band: the emission light's L_e,b marched with κ_b, σ_s,b
 and the bins' emission tables, a sky's spectrum summed over each bin and its transmittance
 Tr_b = exp(−(k_b τ_κ + s_b τ_σ)) from one march of the two optical depths (as the sun's in
-``spectral_scattering``). Directions do not depend on λ (the phase function is grey): one
+``spectral_scattering``), a map's RGB pixel as three flat spectra with its XYZ exactly
+(:func:`map_coefficients`). Directions do not depend on λ (the phase function is grey): one
 direction serves every band.
 
 A path's free flights do depend on λ. Each path draws a hero band h (uniform) and samples
@@ -29,11 +31,14 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from incandescent.constants import K_M
 from incandescent.renderer import rays
 from incandescent.renderer.backends.camera_rays import clip_to_box
 from incandescent.renderer.backends.common import THIN_STEP, trilinear
 from incandescent.renderer.integrators import emission_light as el
+from incandescent.renderer.integrators import environment_map as env
 from incandescent.renderer.integrators import monte_carlo as mc
+from incandescent.spectra.cmf import cmfs
 
 
 def _add(a: list, b: list) -> list:
@@ -54,6 +59,34 @@ def _flight_factors(kappa, sigma, tau_k, tau_s, hero, scales, ops) -> tuple[list
         through.append(sigma * s * tr)
         pdfs.append((kappa * k + sigma * s) * tr)
     return through, pdfs
+
+
+#: Where an RGB map pixel's spectrum steps, nm: three flat bands, 360–490, 490–590, 590–830.
+MAP_STEPS_NM = (490.0, 590.0)
+
+
+def map_basis(wavelength_nm) -> NDArray[np.float64]:
+    """The three flat spectra a map pixel is made of, (3, n) at ``wavelength_nm``."""
+    lam = np.asarray(wavelength_nm, dtype=np.float64)
+    edges = (-np.inf, *MAP_STEPS_NM, np.inf)
+    return np.stack([(lam >= a) & (lam < b) for a, b in zip(edges[:-1], edges[1:], strict=True)])
+
+
+def map_coefficients(xyz, observer: str) -> NDArray:
+    """Each pixel's amounts a (P, 3) of the three flat spectra, its XYZ exactly: K_m Σ_λ
+    (a·B(λ)) x̄ȳz̄(λ) Δλ = XYZ (a < 0 where a colour is more saturated than the steps give)."""
+    cmf = cmfs(observer)
+    basis_xyz = map_basis(cmf.wavelength_nm) @ (K_M * cmf.step_nm * cmf.xyz_bar)  # (3, 3)
+    return np.linalg.solve(basis_xyz.T, np.asarray(xyz, dtype=np.float64).reshape(-1, 3).T).T
+
+
+def map_bins(bins, observer: str) -> NDArray[np.float64]:
+    """Per bin the XYZ of each flat spectrum, (N, 3, 3) [bin, spectrum, XYZ]: a pixel's XYZ in
+    bin b is a @ this[b], and the bins sum to its XYZ."""
+    cmf = cmfs(observer)
+    per_nm = map_basis(cmf.wavelength_nm)[:, :, None] * (K_M * cmf.step_nm * cmf.xyz_bar)
+    spans = zip(bins.edges[:-1], bins.edges[1:], strict=True)
+    return np.stack([per_nm[:, a:b].sum(axis=1) for a, b in spans])
 
 
 # --- Dr.Jit -----------------------------------------------------------------------------------
@@ -106,15 +139,46 @@ class TracedSpectralEmissionLight(el.TracedEmissionLight):
         return dr.while_loop(state, cond, body, labels=("k", "tau_k", "tau_s", "L"))[3]
 
 
+class TracedSpectralEnvironmentMap(env.TracedEnvironmentMap):
+    """A lat-long map's next event per band: each pixel the three flat spectra of
+    :func:`map_coefficients`, each band's XYZ of them (:func:`map_bins`) and its Tr_b."""
+
+    def __init__(self, program, sky, bins, observer: str) -> None:
+        super().__init__(program, sky)
+        m = self.K.m
+        coefficients = map_coefficients(self.tables.xyz, observer)
+        self.coefficients = [m.Float(coefficients[:, c].astype(np.float32)) for c in range(3)]
+        self.per_band = map_bins(bins, observer)
+        pairs = zip(program.kappa_scale, program.sigma_scale, strict=True)
+        self.scales = [(float(k), float(s)) for k, s in pairs]
+
+    def event(self, p, d, u) -> list:
+        K, program = self.K, self.program
+        dr, m = K.dr, K.m
+        out = [m.Array3f(0.0) for _ in self.scales]
+        for w, index, weight in self.weighted(p, d, u):
+            _, t_exit = clip_to_box(dr, m, p, w, K.shape)
+            length = dr.maximum(t_exit, 0.0)
+            tau_k, tau_s = program.optical_depths_along(p, w, length, program.path_dt)
+            a = [dr.gather(m.Float, c, index) for c in self.coefficients]
+            for band, ((ks, ss), table) in enumerate(zip(self.scales, self.per_band, strict=True)):
+                xyz = m.Array3f(
+                    *(sum(a[c] * float(table[c, i]) for c in range(3)) for i in range(3))
+                )
+                shadow = dr.exp(-(tau_k * ks + tau_s * ss))
+                out[band] = dr.fma(xyz, weight * shadow, out[band])
+        return out
+
+
 class TracedSpectralMonteCarlo(mc.TracedMonteCarlo):
     """The traced estimator per band: the sampled lights' next events and the paths, whose
     throughputs are per band and whose flights follow a hero band per path."""
 
     def __init__(self, program, lights, spp: int, max_bounces: int, seed: int) -> None:
         """``lights``: (the emission light's estimator or None, the skies' XYZ per band (N, 3)
-        or None)."""
-        emitter, sky_bands = lights
-        super().__init__(program, (emitter, None, []), spp, max_bounces, seed)
+        or None, the maps' estimators)."""
+        emitter, sky_bands, maps = lights
+        super().__init__(program, (emitter, None, maps), spp, max_bounces, seed)
         self.sky_bands = (
             None if sky_bands is None else [[float(v) for v in xyz] for xyz in sky_bands]
         )
@@ -151,10 +215,14 @@ class TracedSpectralMonteCarlo(mc.TracedMonteCarlo):
         return _add(out, self.path(p, d, j)) if self.max_bounces >= 2 else out
 
     def next_events(self, p, d, u, j, bounce=None) -> list:
-        """Traced: the emission light's pair and the skies at p seen along d, per band."""
+        """Traced: the maps, the emission light's pair and the skies at p seen along d, per
+        band."""
         K, program = self.K, self.program
         dr, m = K.dr, K.m
         out = self.zero()
+        for sky_map in self.maps:
+            u_map = self.uniforms(j, env.MAP_DIMENSIONS, bounce, env.MAP_SALT)
+            out = _add(out, sky_map.event(p, d, u_map))
         if self.emitter is not None:
             out = _add(out, self.emitter.pair(p, d, u[: el.DIMENSIONS]))
         if self.sky_bands is not None:
@@ -298,15 +366,36 @@ class ReferenceSpectralEmissionLight(el.ReferenceEmissionLight):
             k += 1
 
 
+class ReferenceSpectralEnvironmentMap(env.ReferenceEnvironmentMap):
+    """A lat-long map's next event at every 1 nm sample: each pixel's three flat spectra."""
+
+    def __init__(self, program, sky, observer: str) -> None:
+        super().__init__(program, sky)
+        self.coefficients = map_coefficients(self.tables.xyz, observer)
+        self.basis = map_basis(program.cmf.wavelength_nm)
+
+    def event(self, p, d, u) -> NDArray:
+        program = self.program
+        shape = np.asarray(self.inputs.volume.shape, dtype=np.float64)
+        out = np.zeros((len(p), self.basis.shape[1]))
+        for w, index, weight in self.weighted(p, d, u):
+            _, t_exit = rays.clip_to_box(p, w, shape)
+            length = np.maximum(t_exit, 0.0)
+            tau_k, tau_s = program.optical_depths(p, w, length, program.path_dt, program.most)
+            depth = tau_k[:, None] * program.kappa_scale + tau_s[:, None] * program.sigma_scale
+            out += (self.coefficients[index] @ self.basis) * np.exp(-depth) * weight[:, None]
+        return out
+
+
 class ReferenceSpectralMonteCarlo(mc.ReferenceMonteCarlo):
     """The float64 estimator at every 1 nm sample, with the samples of
     :class:`TracedSpectralMonteCarlo` (its bands, distances and roulette from the bins)."""
 
     def __init__(self, program, lights, spp: int, max_bounces: int, seed: int) -> None:
         """``lights``: (the emission light's estimator or None, the skies' radiance per nm
-        (471,) or None)."""
-        emitter, sky_nm = lights
-        super().__init__(program, (emitter, None, []), spp, max_bounces, seed)
+        (471,) or None, the maps' estimators)."""
+        emitter, sky_nm, maps = lights
+        super().__init__(program, (emitter, None, maps), spp, max_bounces, seed)
         self.sky = sky_nm
         self.width = program.kappa_scale.size
         self.nm = list(zip(program.kappa_scale, program.sigma_scale, strict=True))
@@ -315,6 +404,11 @@ class ReferenceSpectralMonteCarlo(mc.ReferenceMonteCarlo):
     def next_events(self, p, d, u, seeds, bounce=None) -> NDArray:
         program = self.program
         out = np.zeros((len(p), self.width))
+        for sky_map in self.maps:
+            ray_index, step, sample = seeds
+            key = self.key ^ env.MAP_SALT
+            hashes = el.uniforms(ray_index, step, sample, key, env.MAP_DIMENSIONS, bounce)
+            out += sky_map.event(p, d, [mc._to_float(h) for h in hashes])
         if self.emitter is not None:
             out += self.emitter.pair(p, d, u[: el.DIMENSIONS])
         if self.sky is not None:

@@ -12,7 +12,7 @@ depths τ_κ = ∫κ ds and τ_σ = ∫σ_s ds, and every wavelength its transmi
 (k_λ, s_λ the two laws' scales). Dr.Jit carries the bins of ``spectra.bins`` (each light's
 spectrum summed over a bin, one scale per bin at its Y-weighted wavelength); the float64
 reference carries every 1 nm sample of the CIE functions, the bins' limit. The Monte Carlo
-lights (the fire's own, skies) and paths run per band too (``spectral_monte_carlo``).
+lights (the fire's own, skies, maps) and paths run per band too (``spectral_monte_carlo``).
 """
 
 from __future__ import annotations
@@ -94,13 +94,16 @@ class TracedSpectral(ss._Traced):
         """The sampled lights and paths per band, or None without them."""
         K = self.kernel
         cells = ss._emitting_cells(integrator, K.volume, K.first_table)
-        skies = ss._skies(integrator)
-        if cells is None and not skies and not ss._paths(integrator):
+        skies, maps = ss._skies(integrator), ss._maps(integrator)
+        if cells is None and not skies and not maps and not ss._paths(integrator):
             return None
         emitter = None if cells is None else smc.TracedSpectralEmissionLight(self, cells)
         observer = integrator.emission.observer
         sky = sum(light_bins(x, K.bands.bins, observer) for x in skies) if skies else None
-        lights = (emitter, sky)
+        traced_maps = [
+            smc.TracedSpectralEnvironmentMap(self, x, K.bands.bins, observer) for x in maps
+        ]
+        lights = (emitter, sky, traced_maps)
         return smc.TracedSpectralMonteCarlo(
             self, lights, integrator.spp, integrator.max_bounces, K.seed
         )
@@ -207,15 +210,16 @@ class ReferenceSpectral(ss._ReferenceLights, ea._SpectralReference):
         """The sampled lights and paths at every nanometre, or None without them."""
         inputs = self.inputs
         cells = ss._emitting_cells(integrator, inputs.volume, inputs.lut)
-        skies = ss._skies(integrator)
-        if cells is None and not skies and not ss._paths(integrator):
+        skies, maps = ss._skies(integrator), ss._maps(integrator)
+        if cells is None and not skies and not maps and not ss._paths(integrator):
             return None
         emitter = None if cells is None else smc.ReferenceSpectralEmissionLight(self, cells)
         observer, wavelength = integrator.emission.observer, self.cmf.wavelength_nm
         sky = sum(light_spectrum(x, wavelength, observer) for x in skies) if skies else None
+        ref_maps = [smc.ReferenceSpectralEnvironmentMap(self, x, observer) for x in maps]
         seed = inputs.settings.seed
         return smc.ReferenceSpectralMonteCarlo(
-            self, (emitter, sky), integrator.spp, integrator.max_bounces, seed
+            self, (emitter, sky, ref_maps), integrator.spp, integrator.max_bounces, seed
         )
 
     def emitted_nm(self, p: NDArray, kappa: NDArray) -> NDArray:
