@@ -11,6 +11,7 @@ Gaussian noise per pixel (σ = 1 % of each pixel's value), or the ones named.
 
     python benchmarks/reconstruction_accuracy.py                 # 64³, 12 views of 128²
     python benchmarks/reconstruction_accuracy.py --size 32 --pixels 64 --out r.json
+    python benchmarks/reconstruction_accuracy.py --backend cuda --cases all   # on a GPU
 
 Each case runs in its own process (its own peak memory). On 2 shared cores the full case takes
 long (each evaluation renders and differentiates every view once); say whether the machine was
@@ -66,9 +67,10 @@ def ring(count: int, pixels: int):
     return cameras, settings
 
 
-def case(n: int, pixels: int, count: int, noise: float, iterations: int, levels: int,
-         tv: float, power: float) -> dict:  # fmt: skip
-    """One reconstruction: its accuracy, time and memory."""
+def case(n: int, pixels: int, count: int, noise: float, options: dict,
+         backend: str = "cpu") -> dict:  # fmt: skip
+    """One reconstruction on ``backend`` (its views rendered there too) with ``Settings(**
+    options)``: its accuracy, time and memory."""
     import time
 
     import incandescent as inc
@@ -77,16 +79,14 @@ def case(n: int, pixels: int, count: int, noise: float, iterations: int, levels:
     truth = fire(n)
     cameras, settings = ring(count, pixels)
     rng = np.random.default_rng(30)
-    clean = [np.asarray(inc.render(truth, c, settings, "cpu").xyz, np.float64) for c in cameras]
+    clean = [np.asarray(inc.render(truth, c, settings, backend).xyz, np.float64) for c in cameras]
     noisy = [np.maximum(x * (1 + noise * rng.standard_normal(x.shape)), 0) for x in clean]
     views = [
         View(x, c, settings, f"view {k}")
         for k, (x, c) in enumerate(zip(noisy, cameras, strict=True))
     ]
     start = time.perf_counter()
-    result = reconstruct(
-        views, truth, Settings(iterations=iterations, levels=levels, tv_weight=tv, power=power)
-    )
+    result = reconstruct(views, truth, Settings(**options), backend)
     seconds = time.perf_counter() - start
     hot = truth.temperature_K > 1000
     error = (result.volume.temperature_K - truth.temperature_K)[hot]
@@ -94,8 +94,8 @@ def case(n: int, pixels: int, count: int, noise: float, iterations: int, levels:
     peak = next(int(line.split()[1]) for line in open("/proc/self/status")
                 if line.startswith("VmHWM"))  # fmt: skip
     return {
-        "size": n, "pixels": pixels, "views": count, "noise": noise,
-        "iterations_per_level": iterations, "levels": levels, "tv_weight": tv, "power": power,
+        "size": n, "pixels": pixels, "views": count, "noise": noise, "backend": backend,
+        "settings": options,
         "hot_voxels": int(hot.sum()),
         "rmse_hot_K": float(np.sqrt(np.mean(error**2))),
         "mean_error_hot_K": float(np.mean(error)),
@@ -115,6 +115,16 @@ def _relative(rendered, target, order: int) -> float:
     return (num / den) ** (1.0 / order)
 
 
+def run_case(n: int, pixels: int, count: int, noise: float, options: dict, backend: str,
+             timeout_s: float | None = None) -> dict:  # fmt: skip
+    """:func:`case` in a child process (its own peak memory), stopped after ``timeout_s``."""
+    spec = json.dumps({"n": n, "pixels": pixels, "count": count, "noise": noise,
+                       "options": options, "backend": backend})  # fmt: skip
+    cmd = [sys.executable, __file__, "--child", spec]
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True, timeout=timeout_s)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=64)
@@ -122,26 +132,28 @@ def main() -> None:
     parser.add_argument("--views", type=int, default=12)
     parser.add_argument("--iterations", type=int, default=100, help="per level")
     parser.add_argument("--levels", type=int, default=3)
-    parser.add_argument("--tv", type=float, default=1e-3, help="TV weight")
+    parser.add_argument("--tv", type=float, default=Settings.tv_weight, help="TV weight")
     parser.add_argument("--power", type=float, default=Settings.power, help="the unknown's p")
+    parser.add_argument("--dark", type=float, default=Settings.dark_fraction,
+                        help="hold voxels with local κ ≤ this × the largest dark")  # fmt: skip
     parser.add_argument("--cases", default="all,few,noisy", help="all, few (4 views), noisy")
+    parser.add_argument("--backend", default="cpu", choices=("cpu", "cuda", "reference"))
     parser.add_argument("--out", type=Path)
-    parser.add_argument("--child", nargs=8, help=argparse.SUPPRESS)
+    parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
-        n, px, count, noise, it, lv, tv, p = args.child
-        row = case(int(n), int(px), int(count), float(noise), int(it), int(lv), float(tv), float(p))
-        print(json.dumps(row))
+        spec = json.loads(args.child)
+        print(json.dumps(case(spec["n"], spec["pixels"], spec["count"], spec["noise"],
+                              spec["options"], spec["backend"])))  # fmt: skip
         return
     plan = {"all": (args.views, 0.0), "few": (4, 0.0), "noisy": (args.views, 0.01)}
+    options = {"iterations": args.iterations, "levels": args.levels, "tv_weight": args.tv,
+               "power": args.power, "dark_fraction": args.dark}  # fmt: skip
     rows = []
     for name in args.cases.split(","):
         count, noise = plan[name]
-        numbers = (args.size, args.pixels, count, noise, args.iterations, args.levels, args.tv,
-                   args.power)  # fmt: skip
-        cmd = [sys.executable, __file__, "--child", *map(str, numbers)]
-        out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
-        rows.append({"case": name, **json.loads(out.strip().splitlines()[-1])})
+        row = run_case(args.size, args.pixels, count, noise, options, args.backend)
+        rows.append({"case": name, **row})
         print(json.dumps(rows[-1]), flush=True)
     if args.out:
         args.out.write_text(json.dumps(rows, indent=2) + "\n")

@@ -138,3 +138,22 @@ def test_one_view_recovers_an_axisymmetric_flame(one_thread):
     view = View(inc.render(truth, camera, settings, "cpu").xyz, camera, settings, "side")
     radial = reconstruct([view], truth, Settings(iterations=40, levels=2, axisymmetric=True))
     assert _rmse(radial.volume, truth) < 45
+
+
+def test_thin_voxels_held_dark_are_written_at_the_floor():
+    """``dark_fraction`` 0.15: the flame's outer voxels, whose κ and their neighbours' is at most
+    15 % of its peak (80 voxels about the box's corners, none above 1000 K), are held at the lower
+    bound and written at the floor; the rest are fitted (none of them at the floor). An unusable
+    fraction is one line."""
+    from scipy.ndimage import maximum_filter
+
+    truth = _flame()
+    local = maximum_filter(truth.absorption_per_m, size=3, mode="nearest")
+    thin = local <= 0.15 * local.max()
+    assert 0 < thin.sum() < thin.size / 4
+    settings = Settings(iterations=3, levels=1, dark_fraction=0.15)
+    result = reconstruct(_views(truth, count=4, pixels=12), truth, settings)
+    temp = result.volume.temperature_K
+    assert np.all(temp[thin] == 300.0) and np.all(temp[~thin] > 700.0)
+    with pytest.raises(ValueError, match="dark_fraction is 1; expected in"):
+        Settings(dark_fraction=1.0)

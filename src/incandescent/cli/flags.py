@@ -648,6 +648,8 @@ RECONSTRUCT = (
     Flag("iterations", int, "L-BFGS-B iterations per level.", default=100),
     Flag("levels", int, "Coarse-to-fine levels (1: the grid only; 3: 1/4, 1/2, 1).", default=3),
     Flag("tv", float, "Total-variation weight, relative to the data term.", default=1e-3),
+    Flag("dark_fraction", float, "Hold voxels whose κ (and their neighbours') is at most this "
+         "fraction of the largest at the floor, as those without κ are.", default=0.0),
     Flag("axisymmetric", bool, "Solve T(r, y) about the vertical axis through the box's centre "
          "(one view suffices: the Abel case).", default=False, decls=("--axisymmetric",)),
     Flag("resume", bool, "Continue from the checkpoint beside the output.", default=False,

@@ -109,7 +109,8 @@ class Settings:
     (K), L-BFGS's memory, the iterations per round (a checkpoint after each) and the power p
     of the unknown v = (Y_bb(T)/Y_bb(2000 K))^p (0: its log). ``axisymmetric``: T is a radial
     profile about the vertical (y) axis through the box's centre, T(r, y) (``Radial``): one view
-    suffices (the Abel case)."""
+    suffices (the Abel case). ``dark_fraction``: voxels whose κ and their neighbours' is at
+    most that fraction of the grid's largest are held at the floor, as those with none are."""
 
     iterations: int = 100
     levels: int = 3
@@ -121,6 +122,9 @@ class Settings:
     round: int = 25
     power: float = 0.5
     axisymmetric: bool = False
+    #: voxels whose κ, and their neighbours', is at most this fraction of the largest are held
+    #: dark (at the floor)
+    dark_fraction: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("iterations", "levels", "memory", "round"):
@@ -131,6 +135,8 @@ class Settings:
                              f"{self.ceiling_K:g} K do not hold")  # fmt: skip
         if self.tv_weight < 0:
             raise ValueError(f"tv_weight is {self.tv_weight:g}; expected ≥ 0")
+        if not 0 <= self.dark_fraction < 1:
+            raise ValueError(f"dark_fraction is {self.dark_fraction:g}; expected in [0, 1)")
 
 
 class Luminance:
@@ -323,12 +329,14 @@ def _unknowns(grid, settings: Settings):
     return Radial(grid.shape) if settings.axisymmetric else None
 
 
-def dark_voxels(grid) -> NDArray[np.bool_]:
+def dark_voxels(grid, fraction: float = 0.0) -> NDArray[np.bool_]:
     """Voxels whose T no render can see: κ = 0 there and in the 26 around (a sample's trilinear
-    κ and T reach one voxel out). They are held at the lower bound (written as the floor)."""
+    κ and T reach one voxel out), or at most ``fraction`` of the grid's largest κ. They are held
+    at the lower bound (written as the floor)."""
     from scipy.ndimage import maximum_filter
 
-    return maximum_filter(np.asarray(grid.absorption_per_m), size=3, mode="nearest") <= 0
+    local = maximum_filter(np.asarray(grid.absorption_per_m), size=3, mode="nearest")
+    return local <= fraction * float(local.max())
 
 
 def _luminance(image) -> float:
@@ -346,7 +354,7 @@ class _Problem:
         self.map = _unknowns(grid, settings)
         self.dark = np.zeros(grid.shape if self.map is None else self.map.shape, bool)
         if self.map is None:
-            self.dark = dark_voxels(grid)
+            self.dark = dark_voxels(grid, settings.dark_fraction)
 
     def __call__(self, flat: NDArray) -> tuple[float, NDArray]:
         loss, grad = self.voxels(flat if self.map is None else self.map.matrix @ flat)
@@ -435,7 +443,7 @@ def _result(views, start, settings, table, state, backend) -> Result:
     temp, _ = table.temperature(v)
     temp = np.where(v <= table.v[0] + 1e-9, settings.floor_K, temp)  # invisible: ambient
     if unknowns is None:
-        temp = np.where(dark_voxels(start), settings.floor_K, temp)
+        temp = np.where(dark_voxels(start, settings.dark_fraction), settings.floor_K, temp)
     volume = start.replace(temperature_K=temp.astype(np.float32))
     rendered = [np.asarray(render(volume, v.camera, v.settings, backend).xyz) for v in views]
     residuals = [image - view.xyz for image, view in zip(rendered, views, strict=True)]
