@@ -650,6 +650,9 @@ RECONSTRUCT = (
     Flag("tv", float, "Total-variation weight, relative to the data term.", default=1e-3),
     Flag("dark_fraction", float, "Hold voxels whose κ (and their neighbours') is at most this "
          "fraction of the largest at the floor, as those without κ are.", default=0.0),
+    Flag("solve_absorption", bool, "Solve κ too, from the grid's κ as the first guess (emission "
+         "alone hardly tells κ from T: see docs/inverse.md).", default=False,
+         decls=("--solve-absorption",)),
     Flag("axisymmetric", bool, "Solve T(r, y) about the vertical axis through the box's centre "
          "(one view suffices: the Abel case).", default=False, decls=("--axisymmetric",)),
     Flag("resume", bool, "Continue from the checkpoint beside the output.", default=False,

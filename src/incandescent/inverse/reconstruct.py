@@ -5,7 +5,8 @@ error, Σ_v |XYZ_v(T) − XYZ_v*|² / Σ_v |XYZ_v*|², plus a total-variation pr
 λ·mean √(|∇T|² + ε²) / 1000 K (forward differences per voxel, smoothed); its gradient comes
 from the replay adjoint (``adjoint``), one forward and one adjoint march per view and
 evaluation. The absorption grid is given (known soot, e.g. from an extinction measurement):
-T alone is solved.
+T alone is solved, unless ``Settings.absorption`` (κ too, a = κ/κ_ref per voxel after the v's,
+TV on a; emission alone hardly determines it).
 
 Why it converges (what the first version, Adam on kelvin, did not):
 
@@ -44,13 +45,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from incandescent.camera import Camera
-from incandescent.inverse.adjoint import gradients_on
-from incandescent.inverse.gradients import gradients
+from incandescent.inverse.adjoint import DeviceGradients, gradients_on
+from incandescent.inverse.gradients import Gradients, gradients
 from incandescent.renderer import RenderSettings, render
 from incandescent.spectra.blackbody import blackbody_xyz
 
 #: T of the log-luminance's zero, K.
 REFERENCE_K = 2000.0
+#: The bounds of a = κ/κ_ref when κ is solved (κ_ref: the start's largest κ)
+ABSORPTION_BOUNDS = (1e-4, 100.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,6 +128,8 @@ class Settings:
     #: voxels whose κ, and their neighbours', is at most this fraction of the largest are held
     #: dark (at the floor)
     dark_fraction: float = 0.0
+    #: solve κ too, from the start's κ as the first guess (``absorption``: κ/κ_ref per voxel)
+    absorption: bool = False
 
     def __post_init__(self) -> None:
         for name in ("iterations", "levels", "memory", "round"):
@@ -135,6 +140,8 @@ class Settings:
                              f"{self.ceiling_K:g} K do not hold")  # fmt: skip
         if self.tv_weight < 0:
             raise ValueError(f"tv_weight is {self.tv_weight:g}; expected ≥ 0")
+        if self.absorption and self.axisymmetric:
+            raise ValueError("absorption and axisymmetric cannot be solved together yet")
         if not 0 <= self.dark_fraction < 1:
             raise ValueError(f"dark_fraction is {self.dark_fraction:g}; expected in [0, 1)")
 
@@ -172,9 +179,10 @@ def total_variation(temp: NDArray, eps: float = 1.0) -> tuple[float, NDArray]:
 
 
 def data_term(volume, views: Sequence[View], backend: str) -> tuple[float, NDArray, list]:
-    """(Σ_v |residual|² / Σ_v |XYZ*|², its T gradient, the rendered images)."""
+    """(Σ_v |residual|² / Σ_v |XYZ*|², its T and κ gradients (2, *shape), the rendered
+    images)."""
     norm = max(sum(float(np.sum(view.xyz**2)) for view in views), 1e-300)
-    loss, grad, images = 0.0, np.zeros(volume.shape), []
+    loss, grad, images = 0.0, np.zeros((2, *volume.shape)), []
     for view in views:
         image = render(volume, view.camera, view.settings, backend)
         residual = np.asarray(image.xyz, dtype=np.float64) - view.xyz
@@ -185,12 +193,15 @@ def data_term(volume, views: Sequence[View], backend: str) -> tuple[float, NDArr
 
 
 def _gradient(backend: str, volume, view: View, weights: NDArray, image) -> NDArray:
-    """∂(Σ weights·XYZ)/∂T: the float64 adjoint on the reference backend (deterministic), the
-    replay adjoint on a Dr.Jit one (float32; its scatter-adds sum in no fixed order)."""
+    """∂(Σ weights·XYZ)/∂T and ∂/∂κ, (2, *shape): the float64 adjoint on the reference backend
+    (deterministic), the replay adjoint on a Dr.Jit one (float32; its scatter-adds sum in no
+    fixed order)."""
+    result: Gradients | DeviceGradients
     if backend == "reference":
-        return gradients(volume, view.camera, view.settings, weights).temperature_K
-    return gradients_on(backend, volume, view.camera, view.settings, weights,
-                        image).temperature_K  # fmt: skip
+        result = gradients(volume, view.camera, view.settings, weights)
+    else:
+        result = gradients_on(backend, volume, view.camera, view.settings, weights, image)
+    return np.stack([result.temperature_K, result.absorption_per_m])
 
 
 def level_volume(start, level: int):
@@ -348,12 +359,14 @@ def _luminance(image) -> float:
 class _Problem:
     """Loss and gradient in v on one level's grid."""
 
-    def __init__(self, views, grid, settings: Settings, backend: str, table, state, progress):
+    def __init__(self, views, grid, settings: Settings, backend: str, table, state, progress,
+                 kappa_ref: float = 1.0):  # fmt: skip
         self.views, self.grid, self.settings, self.backend = views, grid, settings, backend
         self.table, self.state, self.progress = table, state, progress
+        self.kappa_ref = kappa_ref
         self.map = _unknowns(grid, settings)
         self.dark = np.zeros(grid.shape if self.map is None else self.map.shape, bool)
-        if self.map is None:
+        if self.map is None and not settings.absorption:
             self.dark = dark_voxels(grid, settings.dark_fraction)
 
     def __call__(self, flat: NDArray) -> tuple[float, NDArray]:
@@ -361,17 +374,26 @@ class _Problem:
         return loss, grad if self.map is None else self.map.matrix.T @ grad
 
     def voxels(self, flat: NDArray) -> tuple[float, NDArray]:
-        """Loss and gradient in each voxel's v."""
-        temp, dtemp = self.table.temperature(flat.reshape(self.grid.shape))
+        """Loss and gradient in each voxel's v (and, solving κ, its a = κ/κ_ref after them)."""
+        shape, absorption = self.grid.shape, self.settings.absorption
+        unknowns = flat.reshape((2, *shape) if absorption else shape)
+        temp, dtemp = self.table.temperature(unknowns[0] if absorption else unknowns)
         volume = self.grid.replace(temperature_K=temp.astype(np.float32))
-        loss, grad, _ = data_term(volume, self.views, self.backend)
+        if absorption:
+            kappa = unknowns[1] * self.kappa_ref
+            volume = volume.replace(absorption_per_m=kappa.astype(np.float32))
+        loss, (grad, grad_kappa), _ = data_term(volume, self.views, self.backend)
         tv, tv_grad = total_variation(temp)
         weight = self.settings.tv_weight / (temp.size * 1000.0)
-        loss, grad = loss + weight * tv, grad + weight * tv_grad
+        loss, grad = loss + weight * tv, (grad + weight * tv_grad) * dtemp
+        if absorption:  # TV on a, per 1/1000 of κ_ref as T's is per 1000 K
+            tv_a, tv_a_grad = total_variation(unknowns[1], eps=1e-3)
+            loss += weight * 1000.0 * tv_a
+            grad = np.stack([grad, grad_kappa * self.kappa_ref + weight * 1000.0 * tv_a_grad])
         self.state.losses.append(loss)
         if self.progress is not None:
             self.progress(self.state.level, len(self.state.losses), loss)
-        return loss, (grad * dtemp).ravel()
+        return loss, grad.ravel()
 
 
 def _round(problem: _Problem, state: State, bounds, iterations: int) -> None:
@@ -381,9 +403,12 @@ def _round(problem: _Problem, state: State, bounds, iterations: int) -> None:
     settings = problem.settings
     lo, hi = bounds
     dark = problem.dark.ravel()
-    start = np.where(dark, lo, state.v.ravel())
-    result = minimize(problem, start, jac=True, method="L-BFGS-B",
-                      bounds=[(lo, lo) if d else (lo, hi) for d in dark],
+    box = [(lo, lo) if d else (lo, hi) for d in dark]
+    start = state.v.ravel().copy()
+    start[: dark.size] = np.where(dark, lo, start[: dark.size])
+    if settings.absorption:  # a = κ/κ_ref > 0: a κ = 0 sample far from the flame is skipped
+        box += [ABSORPTION_BOUNDS] * dark.size
+    result = minimize(problem, start, jac=True, method="L-BFGS-B", bounds=box,
                       options={"maxiter": iterations, "maxfun": 2 * iterations + 5,
                                "maxcor": settings.memory, "gtol": 0.0,
                                "ftol": 1e-12})  # fmt: skip
@@ -407,9 +432,10 @@ def reconstruct(
     table = Luminance(settings.visible_K, settings.ceiling_K, settings.power)
     bounds = (float(table.v[0]), float(table.v[-1]))
     state = _initial(views, start, settings, backend, table, checkpoint, resume, fingerprint)
+    kappa_ref = _kappa_ref(start)
     while True:
         grid = level_volume(start, state.level)
-        problem = _Problem(views, grid, settings, backend, table, state, progress)
+        problem = _Problem(views, grid, settings, backend, table, state, progress, kappa_ref)
         while state.done < settings.iterations:
             _round(problem, state, bounds, min(settings.round, settings.iterations - state.done))
             if checkpoint is not None:
@@ -418,7 +444,9 @@ def reconstruct(
             break
         finer = level_volume(start, state.level - 1)
         shape = _unknown_shape(finer, settings)
-        state = State(state.level - 1, 0, upsampled(state.v, shape, 2), state.losses)
+        parts, each = (state.v, shape[1:]) if settings.absorption else (state.v[None], shape)
+        finer_v = np.stack([upsampled(part, each, 2) for part in parts]).reshape(shape)
+        state = State(state.level - 1, 0, finer_v, state.losses)
     return _result(views, start, settings, table, state, backend)
 
 
@@ -429,22 +457,40 @@ def _initial(views, start, settings, backend, table, checkpoint, resume, fingerp
     level = min(settings.levels - 1, int(np.log2(max(min(start.shape) // 2, 1))))
     grid = level_volume(start, level)
     temp = uniform_start(views, grid, settings, backend)
-    return State(level, 0, np.full(_unknown_shape(grid, settings), float(table.of(temp))))
+    v = np.full(grid.shape if settings.absorption else _unknown_shape(grid, settings),
+                float(table.of(temp)))  # fmt: skip
+    if settings.absorption:
+        a = np.clip(grid.absorption_per_m / _kappa_ref(start), *ABSORPTION_BOUNDS)
+        v = np.stack([v, a])
+    return State(level, 0, v)
+
+
+def _kappa_ref(start) -> float:
+    """κ_ref, 1/m: the start's largest κ (1 where it has none)."""
+    top = float(np.max(start.absorption_per_m))
+    return top if top > 0 else 1.0
 
 
 def _unknown_shape(grid, settings: Settings) -> tuple[int, ...]:
+    if settings.absorption:
+        return (2, *grid.shape)
     unknowns = _unknowns(grid, settings)
     return grid.shape if unknowns is None else unknowns.shape
 
 
 def _result(views, start, settings, table, state, backend) -> Result:
     unknowns = _unknowns(start, settings)
-    v = state.v if unknowns is None else (unknowns.matrix @ state.v.ravel()).reshape(start.shape)
+    v = state.v[0] if settings.absorption else state.v
+    v = v if unknowns is None else (unknowns.matrix @ v.ravel()).reshape(start.shape)
     temp, _ = table.temperature(v)
     temp = np.where(v <= table.v[0] + 1e-9, settings.floor_K, temp)  # invisible: ambient
-    if unknowns is None:
+    volume = start
+    if settings.absorption:
+        kappa = state.v[1] * _kappa_ref(start)
+        volume = start.replace(absorption_per_m=kappa.astype(np.float32))
+    elif unknowns is None:
         temp = np.where(dark_voxels(start, settings.dark_fraction), settings.floor_K, temp)
-    volume = start.replace(temperature_K=temp.astype(np.float32))
+    volume = volume.replace(temperature_K=temp.astype(np.float32))
     rendered = [np.asarray(render(volume, v.camera, v.settings, backend).xyz) for v in views]
     residuals = [image - view.xyz for image, view in zip(rendered, views, strict=True)]
     return Result(volume, state.losses, rendered, residuals)
