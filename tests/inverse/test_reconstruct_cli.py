@@ -171,3 +171,16 @@ def test_a_scene_file_gives_the_one_view_its_camera_and_film(case):
     result = RUNNER.invoke(app, args)
     assert result.exit_code == 0, result.output
     assert (folder / "one.npz").exists()
+
+
+def test_solve_absorption_writes_the_fitted_absorption(case, one_thread):
+    """``--solve-absorption``: the written volume carries the fitted κ (no longer the grid's),
+    finite and positive; with ``--axisymmetric`` it is one line."""
+    folder, truth, views, _ = case
+    result = _run(folder, views, "--iterations", "3", "--levels", "1", "--solve-absorption")
+    assert result.exit_code == 0, result.output
+    kappa = load_volume(folder / "t.npz").absorption_per_m
+    assert np.isfinite(kappa).all() and kappa.min() > 0
+    assert not np.allclose(kappa, truth.absorption_per_m)
+    both = _run(folder, views, "--solve-absorption", "--axisymmetric", "--overwrite")
+    _one_line_error(both, "absorption and axisymmetric cannot be solved together")
