@@ -67,14 +67,44 @@ def ring(count: int, pixels: int):
     return cameras, settings
 
 
+def fit(views, truth, options: dict, backend: str, deadline_s: float | None):
+    """(the reconstruction, finished?): stopped at ``deadline_s``, the last round that ended
+    at the finest level (the checkpoint's), or None if none had."""
+    import tempfile
+    import time
+
+    from incandescent.inverse import reconstruct as solver
+
+    settings = solver.Settings(**options)
+    if deadline_s is None:
+        return solver.reconstruct(views, truth, settings, backend), True
+    end = time.perf_counter() + deadline_s
+    path = Path(tempfile.mkdtemp()) / "checkpoint.npz"
+
+    def stop(level: int, evaluation: int, loss: float) -> None:
+        if time.perf_counter() > end:
+            raise TimeoutError
+
+    try:
+        return solver.reconstruct(views, truth, settings, backend, stop, path), True
+    except TimeoutError:
+        if not path.exists():
+            return None, False
+        state = solver.load_checkpoint(path, solver._fingerprint(views, truth, settings))
+        if state.level != 0:
+            return None, False
+        table = solver.Luminance(settings.visible_K, settings.ceiling_K, settings.power)
+        return solver._result(views, truth, settings, table, state, backend), False
+
+
 def case(n: int, pixels: int, count: int, noise: float, options: dict,
-         backend: str = "cpu") -> dict:  # fmt: skip
+         backend: str = "cpu", deadline_s: float | None = None) -> dict:  # fmt: skip
     """One reconstruction on ``backend`` (its views rendered there too) with ``Settings(**
-    options)``: its accuracy, time and memory."""
+    options)``: its accuracy, time and memory (stopped at ``deadline_s``: see :func:`fit`)."""
     import time
 
     import incandescent as inc
-    from incandescent.inverse.reconstruct import Settings, View, reconstruct
+    from incandescent.inverse.reconstruct import View
 
     truth = fire(n)
     cameras, settings = ring(count, pixels)
@@ -86,8 +116,10 @@ def case(n: int, pixels: int, count: int, noise: float, options: dict,
         for k, (x, c) in enumerate(zip(noisy, cameras, strict=True))
     ]
     start = time.perf_counter()
-    result = reconstruct(views, truth, Settings(**options), backend)
+    result, finished = fit(views, truth, options, backend, deadline_s)
     seconds = time.perf_counter() - start
+    if result is None:
+        return {"stopped": f"not at the finest level after {seconds:.0f} s", "seconds": seconds}
     hot = truth.temperature_K > 1000
     error = (result.volume.temperature_K - truth.temperature_K)[hot]
     rendered = result.rendered
@@ -95,7 +127,7 @@ def case(n: int, pixels: int, count: int, noise: float, options: dict,
                 if line.startswith("VmHWM"))  # fmt: skip
     return {
         "size": n, "pixels": pixels, "views": count, "noise": noise, "backend": backend,
-        "settings": options,
+        "settings": options, "finished": finished,
         "hot_voxels": int(hot.sum()),
         "rmse_hot_K": float(np.sqrt(np.mean(error**2))),
         "mean_error_hot_K": float(np.mean(error)),
@@ -116,12 +148,15 @@ def _relative(rendered, target, order: int) -> float:
 
 
 def run_case(n: int, pixels: int, count: int, noise: float, options: dict, backend: str,
-             timeout_s: float | None = None) -> dict:  # fmt: skip
-    """:func:`case` in a child process (its own peak memory), stopped after ``timeout_s``."""
+             deadline_s: float | None = None) -> dict:  # fmt: skip
+    """:func:`case` in a child process (its own peak memory); the fit stopped at
+    ``deadline_s``."""
     spec = json.dumps({"n": n, "pixels": pixels, "count": count, "noise": noise,
-                       "options": options, "backend": backend})  # fmt: skip
+                       "options": options, "backend": backend,
+                       "deadline_s": deadline_s})  # fmt: skip
     cmd = [sys.executable, __file__, "--child", spec]
-    out = subprocess.run(cmd, capture_output=True, text=True, check=True, timeout=timeout_s)
+    timeout = None if deadline_s is None else deadline_s + 120.0  # the views, the re-render
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True, timeout=timeout)
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
@@ -144,7 +179,8 @@ def main() -> None:
     if args.child:
         spec = json.loads(args.child)
         print(json.dumps(case(spec["n"], spec["pixels"], spec["count"], spec["noise"],
-                              spec["options"], spec["backend"])))  # fmt: skip
+                              spec["options"], spec["backend"],
+                              spec.get("deadline_s"))))  # fmt: skip
         return
     plan = {"all": (args.views, 0.0), "few": (4, 0.0), "noisy": (args.views, 0.01)}
     options = {"iterations": args.iterations, "levels": args.levels, "tv_weight": args.tv,
