@@ -197,6 +197,15 @@ def _npy_bytes() -> bytes:
     return buffer.getvalue()
 
 
+def test_a_header_with_a_bytes_key_is_a_corrupt_header():
+    """One flipped byte makes `, 'fortran_order'` the bytes literal `,B'fortran_order'`, which
+    NumPy's header check sorts beside str keys (TypeError; found by the fuzzing below in CI)."""
+    raw = bytearray(_npy_bytes())
+    raw[26] = ord("B")
+    with pytest.raises(ValueError, match=r"^fuzz\.npy: corrupt \.npy header"):
+        _npy_header(io.BytesIO(bytes(raw)), "fuzz.npy")
+
+
 @settings(max_examples=200, deadline=None)
 @given(data=st.data())
 def test_npy_header_reader_raises_only_value_error(data):

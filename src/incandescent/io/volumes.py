@@ -81,7 +81,7 @@ def _npy_header(handle, where: str) -> ArrayHeader:
     read_header = npy.read_array_header_1_0 if version == (1, 0) else npy.read_array_header_2_0
     try:
         shape, _, dtype = read_header(handle)
-    except _CORRUPT as error:
+    except (*_CORRUPT, TypeError) as error:  # TypeError: a bytes key, b'...' (found by fuzzing)
         raise ValueError(f"{where}: corrupt .npy header ({error})") from None
     if dtype.hasobject or not (dtype.kind in "biuf" and dtype.fields is None):
         raise ValueError(
