@@ -309,8 +309,8 @@ class FireSolver:
     def _advect_velocity(self, u: StaggeredField, axis: int, step):
         """Face component ``axis`` advected; air entering through an open side *parallel* to it
         brings the far field's velocity along it (still air: 0; the wind along x), while the
-        component normal
-        to a side keeps its edge value (``_entrainment`` damps it). With the edge value extended
+        component normal to a side keeps its edge value (``_entrainment`` damps it; a wind's
+        inflow faces are held at the wind by ``project``). With the edge value extended
         for every component, a flow started in a box with open sides and no force gained 3–4×
         its kinetic energy in 200 steps (tested: ``test_open_sides_inject_no_energy``)."""
         tangential = [side and index // 2 != axis for index, side in enumerate(self.open_sides)]
