@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from incandescent.simulation import FireSolver
-from incandescent.simulation.pool import pool_fire
+from incandescent.simulation.pool import centreline_K, pool_fire
 from incandescent.simulation.run import advance_frame
 
 #: name → (resolution, settings over the pool's with cooling off).
@@ -39,14 +39,12 @@ def centreline(resolution: int, changes: dict) -> dict:
     settings = pool_fire(0.5, 50.0, changes={"fps": 24.0, "cooling_K_s": 0.0, **changes})
     solver = FireSolver(settings, resolution, "cpu")
     state, rows, began = solver.initial_state(), [], time.perf_counter()
-    nx, ny, nz = solver.shape
+    ny = solver.shape[1]
     for frame in range(5 * 24):
         state, _ = advance_frame(solver, state)
         if frame >= 2 * 24:
             t = solver.ops.numpy(state.temperature.values).reshape(solver.shape)
-            rows.append(
-                t[nx // 2 - 1 : nx // 2 + 1, :, nz // 2 - 1 : nz // 2 + 1].mean(axis=(0, 2))
-            )
+            rows.append(centreline_K(t))
     excess = np.mean(rows, axis=0) - settings.t_air_K
     z = (np.arange(ny) + 0.5) * solver.h
     picks = {f"{h:g}": float(excess[np.argmin(abs(z - h))]) for h in HEIGHTS_M if h < z[-1]}

@@ -33,6 +33,7 @@ import numpy as np
 from incandescent.simulation import FireSolver
 from incandescent.simulation.diagnostics import HOT_K
 from incandescent.simulation.pool import (
+    centreline_K,
     dominant_hz,
     heskestad_height_m,
     intermittency_height_m,
@@ -53,7 +54,7 @@ def sample_run(
     centreline temperature (NumPy arrays), with the solver's cell size and wall time."""
     settings = pool_fire(diameter_m, heat_kW, changes={"fps": RATE_HZ})
     solver = FireSolver(settings, resolution, backend)
-    state, h, (nx, _, nz) = solver.initial_state(), solver.h, solver.shape
+    state, h = solver.initial_state(), solver.h
     volume, tip, present, centre = [], [], [], []
     began = time.perf_counter()
     for _ in range(round(seconds * RATE_HZ)):
@@ -64,7 +65,7 @@ def sample_run(
         volume.append(hot.sum() * h**3)
         tip.append((np.nonzero(layers)[0].max() + 1) * h if layers.any() else 0.0)
         present.append(layers)
-        centre.append(t[nx // 2 - 1 : nx // 2 + 1, :, nz // 2 - 1 : nz // 2 + 1].mean(axis=(0, 2)))
+        centre.append(centreline_K(t))
     return {
         "h": h,
         "shape": solver.shape,
@@ -165,11 +166,11 @@ def run_pools(pools: list[tuple[float, ...]], args: argparse.Namespace) -> list[
     context = multiprocessing.get_context("spawn")
     results: list[dict] = []
     with ProcessPoolExecutor(max_workers=max(args.jobs, 1), mp_context=context) as pool:
-        futures = {pool.submit(measure, d, q, *common): i for i, (d, q) in enumerate(pools)}
+        futures = [pool.submit(measure, d, q, *common) for d, q in pools]
         for future in as_completed(futures):
-            results.append(future.result())
-            results.sort(key=lambda r: pools.index((r["D_m"], r["Q_kW"])))
-            print(table([future.result()]).splitlines()[-1], flush=True)
+            done = future.result()
+            results = sorted([*results, done], key=lambda r: pools.index((r["D_m"], r["Q_kW"])))
+            print(table([done]).splitlines()[-1], flush=True)
             args.out.with_suffix(".json").write_text(json.dumps(results, indent=1))
     return results
 

@@ -181,6 +181,13 @@ def intermittency_height_m(present: np.ndarray, cell_m: float) -> float:
     return (j - 0.5 + t) * cell_m
 
 
+def centreline_K(temperature_K: np.ndarray) -> np.ndarray:
+    """The temperature (K) up the domain's vertical centreline: the mean of the 2×2 central
+    columns of an (nx, ny, nz) grid, one value per layer."""
+    nx, _, nz = temperature_K.shape
+    return temperature_K[nx // 2 - 1 : nx // 2 + 1, :, nz // 2 - 1 : nz // 2 + 1].mean(axis=(0, 2))
+
+
 def power_law_slope(height_m: np.ndarray, excess_K: np.ndarray) -> float:
     """d ln ΔT / d ln z: the least-squares slope of a centreline profile in log–log."""
     z, dT = np.asarray(height_m, dtype=float), np.asarray(excess_K, dtype=float)

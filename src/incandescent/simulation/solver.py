@@ -196,9 +196,9 @@ class FireSolver:
         return self.ops.array(crossing.ravel().astype(np.float64))
 
     def _wind_faces(self):
-        """1 on the open faces of the x− side where a wind blows in, else 0 (no wind: all 0)."""
+        """1 on the open faces of the x− side (where a wind blows in, ``_blow``), else 0."""
         first = np.zeros(self.face[0].shape)
-        first[0] = 1.0 if self.wind > 0.0 else 0.0
+        first[0] = 1.0
         return self.ops.array(first.ravel()) * self.face_open[0]
 
     def _blow(self, velocity: Sequence[Array]) -> list[Array]:

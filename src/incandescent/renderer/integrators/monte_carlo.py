@@ -187,11 +187,7 @@ class TracedMonteCarlo:
             return (k * dt < t_exit) & ~hit
 
         def body(k, tau, t_hit, albedo, hit):
-            a = k * dt
-            b = dr.minimum(a + dt, t_exit)
-            c = K.corners(dr.fma(w, 0.5 * (a + b), p))
-            kappa, _ = K.medium_at(c)
-            sigma_s = K.trilinear(program.scattering, c)
+            a, b, _, kappa, _, sigma_s = program.segment(p, w, k, dt, t_exit)
             sigma_t = dr.maximum(kappa + sigma_s, 1e-30)
             x = sigma_t * (b - a) * K.ds_per_voxel
             now = tau + x >= target

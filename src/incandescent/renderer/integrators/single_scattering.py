@@ -188,10 +188,20 @@ def _skies(integrator) -> list[EnvironmentLight]:
     return [light for light in integrator.lights if isinstance(light, EnvironmentLight)]
 
 
-def _sampled_lights(integrator, volume, lut) -> tuple[LightCells | None, NDArray | None]:
-    """(the emission light's cells if it emits, the skies' total XYZ radiance) or Nones."""
-    skies = [light.xyz() for light in _skies(integrator)]
-    return _emitting_cells(integrator, volume, lut), (np.sum(skies, axis=0) if skies else None)
+def _sampled_lights(integrator, volume, lut) -> tuple | None:
+    """(the emission light's cells if it emits, else None; the uniform skies; the lat-long
+    skies) — what the Monte Carlo estimators sample — or None where they have nothing to do (no
+    such light and no paths). Grey and spectral, traced and float64 alike start from it."""
+    cells = _emitting_cells(integrator, volume, lut)
+    skies, maps = _skies(integrator), _maps(integrator)
+    if cells is None and not skies and not maps and not _paths(integrator):
+        return None
+    return cells, skies, maps
+
+
+def _sky_xyz(skies: list[EnvironmentLight]) -> NDArray | None:
+    """The uniform skies' total XYZ radiance, or None without one."""
+    return np.sum([light.xyz() for light in skies], axis=0) if skies else None
 
 
 def path_step(step_voxels: float, integrator) -> np.float32:
@@ -242,13 +252,13 @@ class _Traced(ea._Traced):
     def monte_carlo(self, integrator) -> TracedMonteCarlo | None:
         """The estimator of the sampled lights and paths, or None without them."""
         K = self.kernel
-        cells, sky = _sampled_lights(integrator, K.volume, K.first_table)
-        maps = _maps(integrator)
-        if cells is None and sky is None and not maps and not _paths(integrator):
+        sampled = _sampled_lights(integrator, K.volume, K.first_table)
+        if sampled is None:
             return None
+        cells, skies, maps = sampled
         emitter = None if cells is None else TracedEmissionLight(self, cells)
-        skies = [TracedEnvironmentMap(self, sky_map) for sky_map in maps]
-        lights = (emitter, sky, skies)
+        traced_maps = [TracedEnvironmentMap(self, sky_map) for sky_map in maps]
+        lights = (emitter, _sky_xyz(skies), traced_maps)
         return TracedMonteCarlo(self, lights, integrator.spp, integrator.max_bounces, K.seed)
 
     def g_at(self, p, c=None):
@@ -292,6 +302,18 @@ class _Traced(ea._Traced):
         K.dr.eval(out)
         return out
 
+    def segment(self, p, d, k, dt, end):
+        """Traced: step k of a march from p along unit d in steps of ``dt`` voxels, cut at
+        ``end``: its start a and end b (voxels), the trilinear corners c of its midpoint and κ,
+        T and σ_s there — what every shadow march and free flight reads per step."""
+        K = self.kernel
+        dr = K.dr
+        a = k * dt
+        b = dr.minimum(a + dt, end)
+        c = K.corners(dr.fma(d, 0.5 * (a + b), p))
+        kappa, temp = K.medium_at(c)
+        return a, b, c, kappa, temp, K.trilinear(self.scattering, c)
+
     def transmittance_along(self, p, d, length, dt=None):
         """Traced: e^{−∫σ_t ds} from p along d for ``length`` voxels (midpoint rule, steps of
         ``dt`` voxels: the render's step by default)."""
@@ -303,11 +325,8 @@ class _Traced(ea._Traced):
             return (k * dt < length) & (tau < MAX_SHADOW_DEPTH)
 
         def body(k, tau):
-            a = k * dt
-            b = dr.minimum(a + dt, length)
-            c = K.corners(dr.fma(d, 0.5 * (a + b), p))
-            kappa, _ = K.medium_at(c)
-            sigma_t = kappa + K.trilinear(self.scattering, c)
+            a, b, _, kappa, _, sigma_s = self.segment(p, d, k, dt, length)
+            sigma_t = kappa + sigma_s
             return k + 1.0, dr.fma(sigma_t, (b - a) * K.ds_per_voxel, tau)
 
         _, tau = dr.while_loop((m.Float(0.0), m.Float(0.0)), cond, body, labels=("k", "tau"))
@@ -431,14 +450,15 @@ class _Reference(_ReferenceLights, ea._Reference):
         lights = _fixed(integrator.lights)
         self.lights = [(light, np.asarray(_in_voxels(light, vol)), light.xyz()) for light in lights]
         self.sampled = None
-        cells, sky = _sampled_lights(integrator, vol, inputs.lut)
-        maps = _maps(integrator)
-        if cells is not None or sky is not None or maps or _paths(integrator):
+        sampled = _sampled_lights(integrator, vol, inputs.lut)
+        if sampled is not None:
+            cells, skies, maps = sampled
             emitter = None if cells is None else ReferenceEmissionLight(self, cells)
-            skies = [ReferenceEnvironmentMap(self, sky_map) for sky_map in maps]
+            ref_maps = [ReferenceEnvironmentMap(self, sky_map) for sky_map in maps]
+            sampled_lights = (emitter, _sky_xyz(skies), ref_maps)
             seed = inputs.settings.seed
             self.sampled = ReferenceMonteCarlo(
-                self, (emitter, sky, skies), integrator.spp, integrator.max_bounces, seed
+                self, sampled_lights, integrator.spp, integrator.max_bounces, seed
             )
         self.shadow_grids = None
         if integrator.shadows == "grid":

@@ -114,11 +114,7 @@ class TracedSpectralEmissionLight(el.TracedEmissionLight):
             return (k * dt < t_exit) & (most * (tau_k + tau_s) < el.MAX_DEPTH)
 
         def body(k, tau_k, tau_s, L):
-            a = k * dt
-            b = dr.minimum(a + dt, t_exit)
-            c = K.corners(dr.fma(w, 0.5 * (a + b), p))
-            kappa, temp = K.medium_at(c)
-            sigma = K.trilinear(program.scattering, c)
+            a, b, c, kappa, temp, sigma = program.segment(p, w, k, dt, t_exit)
             sampled = [model.sample(K, bound, c) for model, bound in K.terms]
             scale = None if K.scale is None else K.trilinear(K.scale, c)
             ds_m = (b - a) * K.ds_per_voxel
@@ -299,11 +295,7 @@ class TracedSpectralMonteCarlo(mc.TracedMonteCarlo):
             return (k * dt < t_exit) & ~hit
 
         def body(k, tau_k, tau_s, hit_at, hit):
-            a = k * dt
-            b = dr.minimum(a + dt, t_exit)
-            c = K.corners(dr.fma(w, 0.5 * (a + b), p))
-            kappa, _ = K.medium_at(c)
-            sigma = K.trilinear(program.scattering, c)
+            a, b, _, kappa, _, sigma = program.segment(p, w, k, dt, t_exit)
             sigma_h = dr.maximum(kh * kappa + sh * sigma, 1e-30)
             tau_h = kh * tau_k + sh * tau_s
             now = tau_h + sigma_h * (b - a) * ds >= target

@@ -93,10 +93,10 @@ class TracedSpectral(ss._Traced):
     def monte_carlo(self, integrator) -> smc.TracedSpectralMonteCarlo | None:
         """The sampled lights and paths per band, or None without them."""
         K = self.kernel
-        cells = ss._emitting_cells(integrator, K.volume, K.first_table)
-        skies, maps = ss._skies(integrator), ss._maps(integrator)
-        if cells is None and not skies and not maps and not ss._paths(integrator):
+        sampled = ss._sampled_lights(integrator, K.volume, K.first_table)
+        if sampled is None:
             return None
+        cells, skies, maps = sampled
         emitter = None if cells is None else smc.TracedSpectralEmissionLight(self, cells)
         observer = integrator.emission.observer
         sky = sum(light_bins(x, K.bands.bins, observer) for x in skies) if skies else None
@@ -124,12 +124,8 @@ class TracedSpectral(ss._Traced):
             return (k * dt < length) & (most * (tau_k + tau_s) < ss.MAX_SHADOW_DEPTH)
 
         def body(k, tau_k, tau_s):
-            a = k * dt
-            b = dr.minimum(a + dt, length)
-            c = K.corners(dr.fma(d, 0.5 * (a + b), p))
-            kappa, _ = K.medium_at(c)
+            a, b, _, kappa, _, sigma = self.segment(p, d, k, dt, length)
             metres = (b - a) * K.ds_per_voxel
-            sigma = K.trilinear(self.scattering, c)
             return k + 1.0, dr.fma(kappa, metres, tau_k), dr.fma(sigma, metres, tau_s)
 
         state = (m.Float(0.0), m.Float(0.0), m.Float(0.0))
@@ -209,10 +205,10 @@ class ReferenceSpectral(ss._ReferenceLights, ea._SpectralReference):
     def monte_carlo(self, integrator) -> smc.ReferenceSpectralMonteCarlo | None:
         """The sampled lights and paths at every nanometre, or None without them."""
         inputs = self.inputs
-        cells = ss._emitting_cells(integrator, inputs.volume, inputs.lut)
-        skies, maps = ss._skies(integrator), ss._maps(integrator)
-        if cells is None and not skies and not maps and not ss._paths(integrator):
+        sampled = ss._sampled_lights(integrator, inputs.volume, inputs.lut)
+        if sampled is None:
             return None
+        cells, skies, maps = sampled
         emitter = None if cells is None else smc.ReferenceSpectralEmissionLight(self, cells)
         observer, wavelength = integrator.emission.observer, self.cmf.wavelength_nm
         sky = sum(light_spectrum(x, wavelength, observer) for x in skies) if skies else None
