@@ -413,7 +413,8 @@ def test_api_wrong_types_are_type_errors_naming_the_argument():
     volume = inc.Volume.from_arrays(np.full((4, 4, 4), 1500.0))
     with pytest.raises(TypeError, match="settings must be an incandescent RenderSettings"):
         inc.render(volume, None, {"width": 8})  # type: ignore[arg-type]
-    with pytest.raises(TypeError, match="camera must be an incandescent Camera or None; got str"):
+    want = "camera must be an incandescent Camera or Rig or None; got str"
+    with pytest.raises(TypeError, match=want):
         inc.render(volume, "front")  # type: ignore[arg-type]
 
 

@@ -67,16 +67,17 @@ def _one_line_error(result, pattern: str) -> None:
 
 
 def test_reconstruct_writes_the_volume_its_residuals_and_the_loss(case, one_thread):
-    """8³ from six views of 12², 15 iterations at 4³ then 8³: the RMSE over the voxels above
-    1000 K under 100 K (the Python API on the same views: 55.7 K)."""
+    """8³ from six views of 12², 30 iterations at 4³ then 8³: the RMSE over the voxels above
+    1000 K under 60 K (the Python API on the same views: 31.6 K; at 15 iterations the fit is
+    far from converged and ends anywhere from 55 K to 250 K with the scatter-adds' order)."""
     folder, truth, views, _ = case
-    result = _run(folder, views, "--iterations", "15", "--levels", "2")
+    result = _run(folder, views, "--iterations", "30", "--levels", "2")
     assert result.exit_code == 0, result.output
     assert re.search(r"grid 1/2 evaluation 1: loss", result.output)
     volume = load_volume(folder / "t.npz")
     hot = truth.temperature_K > 1000
     error = np.sqrt(np.mean((volume.temperature_K - truth.temperature_K)[hot] ** 2))
-    assert error < 100, error
+    assert error < 60, error
     report = json.loads((folder / "t.loss.json").read_text())
     assert report["loss"][-1] < report["loss"][0] / 100
     assert [v["view"] for v in report["views"]] == [str(v) for v in views]

@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from incandescent.camera import Camera
+from incandescent.camera import Camera, Rig
 from incandescent.inverse.adjoint import DeviceGradients, gradients_on
 from incandescent.inverse.gradients import Gradients, gradients
 from incandescent.renderer import RenderSettings, render
@@ -179,28 +179,53 @@ def total_variation(temp: NDArray, eps: float = 1.0) -> tuple[float, NDArray]:
 
 
 def data_term(volume, views: Sequence[View], backend: str) -> tuple[float, NDArray, list]:
-    """(Σ_v |residual|² / Σ_v |XYZ*|², its T and κ gradients (2, *shape), the rendered
-    images)."""
+    """(Σ_v |residual|² / Σ_v |XYZ*|², its T and κ gradients (2, *shape), the rendered XYZ
+    images). On a Dr.Jit backend views that share their film settings are rendered, and
+    differentiated, as one rig (``camera.Rig``): one forward and one adjoint launch for all."""
     norm = max(sum(float(np.sum(view.xyz**2)) for view in views), 1e-300)
     loss, grad, images = 0.0, np.zeros((2, *volume.shape)), []
-    for view in views:
-        image = render(volume, view.camera, view.settings, backend)
-        residual = np.asarray(image.xyz, dtype=np.float64) - view.xyz
-        loss += float(np.sum(residual**2)) / norm
-        grad += _gradient(backend, volume, view, 2.0 * residual / norm, image)
-        images.append(image)
+    for group in _films(views, backend):
+        camera, settings = _film(group)
+        image = render(volume, camera, settings, backend)
+        assert image.xyz is not None, "emission–absorption renders radiance"
+        parts = camera.split(image.xyz) if isinstance(camera, Rig) else [image.xyz]
+        residuals = [np.asarray(x, np.float64) - v.xyz for x, v in zip(parts, group, strict=True)]
+        loss += sum(float(np.sum(r**2)) for r in residuals) / norm
+        weights = np.concatenate(residuals, axis=1) * (2.0 / norm)
+        grad += _gradient(backend, volume, camera, settings, weights, image)
+        images += [np.asarray(x) for x in parts]
     return loss, grad, images
 
 
-def _gradient(backend: str, volume, view: View, weights: NDArray, image) -> NDArray:
+def _films(views: Sequence[View], backend: str) -> list[list[View]]:
+    """The views in groups rendered together: all that share their film settings on a Dr.Jit
+    backend, each alone on the reference (its float64 adjoint tapes per view)."""
+    if backend == "reference":
+        return [[view] for view in views]
+    groups: dict[RenderSettings, list[View]] = {}
+    for view in views:
+        groups.setdefault(view.settings, []).append(view)
+    return list(groups.values())
+
+
+def _film(group: Sequence[View]) -> tuple[Camera | Rig, RenderSettings]:
+    """One view's camera and settings, or a rig of several on a film as wide as all."""
+    settings = group[0].settings
+    if len(group) == 1:
+        return group[0].camera, settings
+    rig = Rig(tuple(view.camera for view in group))
+    return rig, settings.replace(width=settings.width * len(group))
+
+
+def _gradient(backend: str, volume, camera, settings, weights: NDArray, image) -> NDArray:
     """∂(Σ weights·XYZ)/∂T and ∂/∂κ, (2, *shape): the float64 adjoint on the reference backend
     (deterministic), the replay adjoint on a Dr.Jit one (float32; its scatter-adds sum in no
     fixed order)."""
     result: Gradients | DeviceGradients
     if backend == "reference":
-        result = gradients(volume, view.camera, view.settings, weights)
+        result = gradients(volume, camera, settings, weights)
     else:
-        result = gradients_on(backend, volume, view.camera, view.settings, weights, image)
+        result = gradients_on(backend, volume, camera, settings, weights, image)
     return np.stack([result.temperature_K, result.absorption_per_m])
 
 
@@ -297,11 +322,12 @@ class Result:
 def uniform_start(views: Sequence[View], grid, settings: Settings, backend: str) -> float:
     """The uniform T (K) whose views' summed luminance equals the inputs' (bisection)."""
     want = sum(float(view.xyz[..., 1].sum()) for view in views)
+    films = [_film(group) for group in _films(views, backend)]
     lo, hi = settings.visible_K, settings.ceiling_K
     for _ in range(20):
         mid = 0.5 * (lo + hi)
         trial = grid.replace(temperature_K=np.full(grid.shape, mid, np.float32))
-        got = sum(_luminance(render(trial, v.camera, v.settings, backend)) for v in views)
+        got = sum(_luminance(render(trial, camera, film, backend)) for camera, film in films)
         lo, hi = (mid, hi) if got < want else (lo, mid)
     return 0.5 * (lo + hi)
 

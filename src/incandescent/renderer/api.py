@@ -9,7 +9,7 @@ import numpy as np
 
 from incandescent._version import __version__
 from incandescent.budget import Limits
-from incandescent.camera import Camera, default_camera
+from incandescent.camera import Camera, Rig, default_camera
 from incandescent.emission import EmissionModel
 from incandescent.renderer.backends import MarchInputs, resolve_backend, run_march
 from incandescent.renderer.backends.bricks import brick_bytes
@@ -44,17 +44,12 @@ BYTES_PER_RAY = {"reference": 1024, "cpu": 256, "cuda": 256}
 def _check_types(volume, camera, settings, integrator) -> None:
     for value, kind, name in (
         (volume, (Volume, SparseVolume), "volume"),
-        (camera, (Camera, type(None)), "camera"),
+        (camera, (Camera, Rig, type(None)), "camera"),
         (settings, (RenderSettings, type(None)), "settings"),
         (integrator, (Integrator, type(None)), "integrator"),
     ):
         if not isinstance(value, kind):
-            want = (
-                kind.__name__
-                if isinstance(kind, type)
-                else f"{kind[0].__name__} or {kind[1].__name__}"
-            )
-            want = want.replace(" or NoneType", " or None")
+            want = " or ".join(k.__name__ for k in kind).replace("NoneType", "None")
             raise TypeError(
                 f"{name} must be an incandescent {want}; got {type(value).__name__} {value!r:.60}"
             )
@@ -90,7 +85,7 @@ def check_budget(
 
 def render(
     volume: Volume | SparseVolume,
-    camera: Camera | None = None,
+    camera: Camera | Rig | None = None,
     settings: RenderSettings | None = None,
     backend: str | None = "auto",
     limits: Limits | None = None,
@@ -168,7 +163,7 @@ def _scatter_rays(values: np.ndarray, index, inputs: MarchInputs, fill: float, r
     return resolve_pixels(full, s.width, s.height, s.supersample, reduce)
 
 
-def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera) -> HDRImage:
+def _assemble(inputs: MarchInputs, result, backend: str, camera: Camera | Rig) -> HDRImage:
     values = _scatter_rays(result.xyz, result.ray_index, inputs, 0.0)
     xyz, display_rgb = inputs.integrator.film(values)
     index = result.ray_index

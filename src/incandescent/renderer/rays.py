@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from incandescent.camera import Camera
+from incandescent.camera import Camera, Rig
 from incandescent.renderer.settings import RenderSettings
 from incandescent.volume import Volume
 
@@ -71,7 +71,7 @@ def jitter(ray_index: NDArray, seed: int) -> NDArray[np.float64]:
     return (h >> np.uint32(8)).astype(np.float64) * 2.0**-24
 
 
-def prepare_rays(camera: Camera, volume: Volume, settings: RenderSettings) -> RayBatch:
+def prepare_rays(camera: Camera | Rig, volume: Volume, settings: RenderSettings) -> RayBatch:
     """Generate, transform and clip all camera rays; keep those with a non-empty box interval."""
     s = settings
     origin_w, direction = camera.generate_rays(s.width, s.height, s.supersample)
@@ -106,39 +106,41 @@ class RaySpec:
     key: int  # lowbias32(seed + golden ratio): XORed into each ray index before hashing
     #: motion blur: the shutter interval in s from the frame's instant, or None (no blur)
     shutter_s: tuple[float, float] | None = None
+    #: a rig's cameras, each (eye, right, up, forward, half-width, half-height) over its
+    #: ``width / len(views)`` columns of the film; () for one camera
+    views: tuple = ()
 
     @property
     def n_total(self) -> int:
         return self.width * self.height * self.supersample**2
 
 
-def ray_spec(camera: Camera, volume: Volume, settings: RenderSettings) -> RaySpec:
-    """The kernel-side description of ``camera``'s rays for ``volume`` (see :class:`RaySpec`)."""
+def ray_spec(camera: Camera | Rig, volume: Volume, settings: RenderSettings) -> RaySpec:
+    """The kernel-side description of ``camera``'s rays for ``volume`` (see :class:`RaySpec`);
+    a :class:`~incandescent.camera.Rig`'s first camera in the single-camera fields, every
+    camera's in ``views``."""
+    key = int(lowbias32(np.array([(settings.seed + 0x9E3779B9) & 0xFFFFFFFF]))[0])
+    if isinstance(camera, Rig):
+        width = camera.view_width(settings.width)
+        views = tuple(_view(c, width / settings.height) for c in camera.cameras)
+    else:
+        views = (_view(camera, settings.width / settings.height),)
+    eye, right, up, forward, half_w, half_h = views[0]
+    return RaySpec(eye, right, up, forward, camera.projection == "perspective", half_w,
+                   half_h, settings.width, settings.height, settings.supersample,
+                   volume.origin_m, volume.voxel_size_m, volume.shape, settings.jitter, key,
+                   settings.shutter_s, views if isinstance(camera, Rig) else ())  # fmt: skip
+
+
+def _view(camera: Camera, aspect: float) -> tuple:
+    """(eye, right, up, forward, film half-width, half-height) of one camera."""
     right, up, forward = camera.basis()
-    aspect = settings.width / settings.height
     if camera.projection == "perspective":
         half_h = float(np.tan(np.radians(camera.fov_deg) / 2.0))
     else:
         half_h = camera.ortho_height_m / 2.0
-    key = int(lowbias32(np.array([(settings.seed + 0x9E3779B9) & 0xFFFFFFFF]))[0])
-    return RaySpec(
-        camera.eye,
-        tuple(right),
-        tuple(up),
-        tuple(forward),
-        camera.projection == "perspective",
-        half_h * aspect,
-        half_h,
-        settings.width,
-        settings.height,
-        settings.supersample,
-        volume.origin_m,
-        volume.voxel_size_m,
-        volume.shape,
-        settings.jitter,
-        key,
-        settings.shutter_s,
-    )
+    vectors = (camera.eye, right, up, forward)
+    return (*(tuple(float(c) for c in v) for v in vectors), half_h * aspect, half_h)
 
 
 #: Side of the square pixel tiles whose rays the kernels march together, in sub-pixels.

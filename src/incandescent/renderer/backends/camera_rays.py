@@ -16,22 +16,17 @@ def ray_arrays(m, spec, order):
     dr = drjit_module()
     s = spec.supersample
     x, y, index = (m.UInt(a) for a in order)
-    px = 2.0 * (m.Float(x) + 0.5) / (spec.width * s) - 1.0
+    columns = spec.width * s // max(len(spec.views), 1)  # one camera's sub-pixel columns
+    eye, right, up, forward, half_w, half_h, x = _camera(m, spec, x, columns)
+    px = 2.0 * (m.Float(x) + 0.5) / columns - 1.0
     py = 1.0 - 2.0 * (m.Float(y) + 0.5) / (spec.height * s)
-
-    def given(v):  # a kernel input, not a constant: a new camera reuses the compiled kernel
-        return m.Array3f(*(dr.opaque(m.Float, float(c)) for c in v))
-
-    right, up, forward, eye = (given(v) for v in (spec.right, spec.up, spec.forward, spec.eye))
-    half_w, half_h, voxel = (
-        dr.opaque(m.Float, float(v)) for v in (spec.half_width, spec.half_height, spec.voxel_size_m)
-    )
+    voxel = dr.opaque(m.Float, float(spec.voxel_size_m))
     film = right * (px * half_w) + up * (py * half_h)
     if spec.perspective:
         o, d = eye, dr.normalize(forward + film)
     else:
         o, d = eye + film, forward + 0.0 * px
-    o = (o - given(spec.origin_m)) / voxel
+    o = (o - _given(m, spec.origin_m)) / voxel
     t0, t1 = clip_to_box(dr, m, o, d, spec.shape)
     if spec.jitter:
         h = lowbias32(index ^ dr.opaque(m.UInt, spec.key))
@@ -39,6 +34,32 @@ def ray_arrays(m, spec, order):
     else:
         j = m.Float(0.5)
     return o, d, t0, t1, j
+
+
+def _given(m, v):
+    """A 3-vector as a kernel input, not a constant: a new camera reuses the compiled kernel."""
+    dr = drjit_module()
+    return m.Array3f(*(dr.opaque(m.Float, float(c)) for c in v))
+
+
+def _camera(m, spec, x, columns: int):
+    """(eye, right, up, forward, film half-width, half-height, the sub-pixel column within its
+    camera's image) per lane: the spec's one camera, or a rig's (``spec.views``) gathered by the
+    lane's camera x // ``columns``."""
+    dr = drjit_module()
+    if not spec.views:
+        vectors = (spec.eye, spec.right, spec.up, spec.forward)
+        halves = (dr.opaque(m.Float, float(v)) for v in (spec.half_width, spec.half_height))
+        return (*(_given(m, v) for v in vectors), *halves, x)
+    view = x // columns
+    table = np.asarray([np.concatenate([np.ravel(a) for a in v]) for v in spec.views])
+    column = [m.Float(np.ascontiguousarray(table[:, k], dtype=np.float32)) for k in range(14)]
+
+    def gathered(k: int):
+        return dr.gather(m.Float, column[k], view)
+
+    rows = [m.Array3f(*(gathered(3 * a + c) for c in range(3))) for a in range(4)]
+    return (*rows, gathered(12), gathered(13), x - view * columns)
 
 
 def clip_to_box(dr, m, o, d, shape):
