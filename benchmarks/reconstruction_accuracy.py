@@ -168,6 +168,7 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=100, help="per level")
     parser.add_argument("--levels", type=int, default=3)
     parser.add_argument("--tv", type=float, default=Settings.tv_weight, help="TV weight")
+    parser.add_argument("--tv-eps", type=float, default=Settings.tv_eps_K, help="TV's ε, K")
     parser.add_argument("--power", type=float, default=Settings.power, help="the unknown's p")
     parser.add_argument("--dark", type=float, default=Settings.dark_fraction,
                         help="hold voxels with local κ ≤ this × the largest dark")  # fmt: skip
@@ -184,6 +185,7 @@ def main() -> None:
         return
     plan = {"all": (args.views, 0.0), "few": (4, 0.0), "noisy": (args.views, 0.01)}
     options = {"iterations": args.iterations, "levels": args.levels, "tv_weight": args.tv,
+               "tv_eps_K": args.tv_eps,
                "power": args.power, "dark_fraction": args.dark}  # fmt: skip
     rows = []
     for name in args.cases.split(","):

@@ -9,8 +9,8 @@ GPU machine's cores), the rows written to one JSON as they finish. A fit still r
         --out sweep.json
     python benchmarks/reconstruction_sweep.py --size 32 --pixels 64 --backend cpu --jobs 1
 
-The settings (``Settings`` fields; unnamed ones are the defaults) are ``SWEEP``, or a JSON list
-of dicts given with ``--settings``.
+The settings (``Settings`` fields; unnamed ones are the defaults; ``views`` and ``noise``, the
+case's) are ``SWEEP``, or a JSON list of dicts given with ``--settings``.
 """
 
 from __future__ import annotations
@@ -45,10 +45,13 @@ SWEEP: list[dict] = [
 
 
 def one(args, options: dict) -> dict:
-    """One case's row, or what stopped it."""
+    """One case's row, or what stopped it (``views`` and ``noise`` in ``options`` override the
+    case's 12 noise-free views; the rest are ``Settings`` fields)."""
     began = time.perf_counter()
+    settings = {k: v for k, v in options.items() if k not in ("views", "noise")}
+    views, noise = options.get("views", args.views), options.get("noise", 0.0)
     try:
-        row = run_case(args.size, args.pixels, args.views, 0.0, options, args.backend,
+        row = run_case(args.size, args.pixels, views, noise, settings, args.backend,
                        args.budget_s)  # fmt: skip
     except subprocess.TimeoutExpired:
         row = {"stopped": f"not done after {args.budget_s:g} s"}

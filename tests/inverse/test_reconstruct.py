@@ -186,3 +186,29 @@ def test_solving_absorption_too_has_the_gradient_of_its_loss():
         assert grad[index] == pytest.approx(fd, rel=rel), index
     with pytest.raises(ValueError, match="absorption and axisymmetric"):
         Settings(absorption=True, axisymmetric=True)
+
+
+@pytest.mark.parametrize("eps", [1.0, 100.0])
+def test_the_tv_prior_and_its_gradient_for_any_smoothing(eps):
+    """Σ √(|∇T|² + ε²) and its gradient against central differences at three voxels (inside,
+    on a face, at a corner) of a random field; a step well below ε costs ≈ ε + step²/(2ε)
+    (quadratic: a smoothness prior), one well above it ≈ the step (linear, as TV), within 1 %.
+    ε ≤ 0 is one line."""
+    from incandescent.inverse.reconstruct import total_variation
+
+    temp = np.random.default_rng(5).uniform(800, 2000, (5, 6, 4))
+    _, grad = total_variation(temp, eps)
+    for voxel in ((2, 3, 1), (0, 2, 2), (4, 5, 3)):
+        up, down = temp.copy(), temp.copy()
+        up[voxel] += 1e-3
+        down[voxel] -= 1e-3
+        fd = (total_variation(up, eps)[0] - total_variation(down, eps)[0]) / 2e-3
+        assert grad[voxel] == pytest.approx(fd, rel=1e-5, abs=1e-9)
+    step = np.zeros((2, 1, 1))
+    for jump in (10.0, 1000.0):
+        step[1] = jump
+        cost = total_variation(step, eps)[0] - eps  # the last voxel's term is ε
+        want = eps + jump**2 / (2 * eps) if jump < eps / 5 else jump
+        assert cost == pytest.approx(want, rel=0.01), jump
+    with pytest.raises(ValueError, match="tv_eps_K is 0; expected > 0 K"):
+        Settings(tv_eps_K=0.0)

@@ -584,7 +584,8 @@ def reconstruct(o: Given) -> None:
         for view in views:
             view.check_sees(grid)
         settings = Settings(iterations=o.iterations, levels=o.levels, tv_weight=o.tv,
-                            axisymmetric=o.axisymmetric, dark_fraction=o.dark_fraction,
+                            tv_eps_K=o.tv_eps, axisymmetric=o.axisymmetric,
+                            dark_fraction=o.dark_fraction,
                             absorption=o.solve_absorption)  # fmt: skip
         if o.resume and not checkpoint.exists():
             raise ValueError(f"--resume: no checkpoint {checkpoint} to resume from")

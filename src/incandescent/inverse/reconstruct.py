@@ -118,6 +118,9 @@ class Settings:
     iterations: int = 100
     levels: int = 3
     tv_weight: float = 1e-3
+    #: the TV's smoothing ε, K per voxel: Σ √(|∇T|² + ε²) is quadratic (a smoothness prior)
+    #: for steps well below ε and linear (edge-preserving) above
+    tv_eps_K: float = 1.0
     floor_K: float = 300.0
     visible_K: float = 700.0
     ceiling_K: float = 4000.0
@@ -140,6 +143,8 @@ class Settings:
                              f"{self.ceiling_K:g} K do not hold")  # fmt: skip
         if self.tv_weight < 0:
             raise ValueError(f"tv_weight is {self.tv_weight:g}; expected ≥ 0")
+        if not self.tv_eps_K > 0:
+            raise ValueError(f"tv_eps_K is {self.tv_eps_K:g}; expected > 0 K")
         if self.absorption and self.axisymmetric:
             raise ValueError("absorption and axisymmetric cannot be solved together yet")
         if not 0 <= self.dark_fraction < 1:
@@ -409,7 +414,7 @@ class _Problem:
             kappa = unknowns[1] * self.kappa_ref
             volume = volume.replace(absorption_per_m=kappa.astype(np.float32))
         loss, (grad, grad_kappa), _ = data_term(volume, self.views, self.backend)
-        tv, tv_grad = total_variation(temp)
+        tv, tv_grad = total_variation(temp, self.settings.tv_eps_K)
         weight = self.settings.tv_weight / (temp.size * 1000.0)
         loss, grad = loss + weight * tv, (grad + weight * tv_grad) * dtemp
         if absorption:  # TV on a, per 1/1000 of κ_ref as T's is per 1000 K
