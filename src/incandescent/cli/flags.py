@@ -273,6 +273,13 @@ LIGHTING = (
     MAX_BOUNCES := Flag("max_bounces", int, "Orders of scattering: 0 (no light scattered: "
                         "emission–absorption, lights dropped) | 1 (single scattering) | N >= 2 "
                         "(multiple scattering, Monte Carlo) [1 with lights, else 0]."),
+    Flag("in_scatter", str, "How the fire's light and skies reach the smoke in single "
+         "scattering: per-sample (estimated at every sample, --spp) | cache (estimated once per "
+         "render at the voxel centres for this camera, --cache-pairs each, and interpolated: "
+         "faster, biased by the interpolation on coarse grids) [per-sample].",
+         "integrator.in_scatter"),
+    Flag("cache_pairs", int, "Samples per voxel of --in-scatter cache [16].",
+         "integrator.cache_pairs"),
 )
 CAMERA = (
     Flag("eye", str, "Camera position X,Y,Z in m [three-quarter view].", "camera.eye", _vector),
@@ -429,7 +436,8 @@ def _bounces(bounces: int | None, out: dict) -> None:
         table["max_bounces"] = bounces
     if bounces == 0:  # today's image: no lights, nothing to sample
         out["light"] = []
-        table.pop("spp", None)
+        for key in ("spp", "in_scatter", "cache_pairs"):
+            table.pop(key, None)
 
 
 def overrides(given: Given) -> dict:

@@ -28,7 +28,8 @@ from incandescent.renderer.integrators import Integrator, SingleScattering
 
 def _single(integrator: SingleScattering, lights) -> SingleScattering:
     """``integrator``'s single-scattering counterpart with ``lights`` (same spp, shadows, step)."""
-    fields = {"spectral_bins", "emission", "shadows", "spp", "path_step_voxels"}
+    fields = {"spectral_bins", "emission", "shadows", "spp", "path_step_voxels", "in_scatter",
+              "cache_pairs"}  # fmt: skip
     return SingleScattering(lights=tuple(lights), **{k: getattr(integrator, k) for k in fields})
 
 

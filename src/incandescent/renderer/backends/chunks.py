@@ -75,6 +75,18 @@ def _march_chunk(inputs: MarchInputs, m, K: Kernel, order) -> tuple[list[np.ndar
     return columns, int(np.asarray(n, dtype=np.uint64).sum()), compile_s
 
 
+def _kernel(m, inputs: MarchInputs) -> tuple[Kernel, float]:
+    """The render's kernel and the seconds its program's one-off work took (shadow grids, the
+    in-scatter cache: part of the render's cost), compilation excluded."""
+    dr = drjit_module()
+    dr.kernel_history()  # clear
+    began = time.perf_counter()
+    K = Kernel(m, inputs)
+    dr.sync_thread()
+    compile_s = sum(_compile_seconds(h) for h in dr.kernel_history())
+    return K, max(time.perf_counter() - began - compile_s, 0.0)
+
+
 def march(inputs: MarchInputs, kind: str, progress=None) -> MarchResult:
     """Run the megakernel on backend ``kind`` ("cpu" or "cuda"), in chunks of rays (a Ctrl-C
     raises KeyboardInterrupt between chunks); ``progress(fraction of rays done)`` after each."""
@@ -88,7 +100,7 @@ def march(inputs: MarchInputs, kind: str, progress=None) -> MarchResult:
     start, size = 0, _first_chunk(spec, inputs.settings)
     upper_per_ray = upper_samples_per_ray(spec.shape, inputs.settings.step_voxels)
     with dr.scoped_set_flag(dr.JitFlag.KernelHistory, True):
-        K = Kernel(m, inputs)
+        K, march_s = _kernel(m, inputs)
         while start < spec.n_total:
             chunk = [a[start : start + size] for a in order]
             began = time.perf_counter()

@@ -38,6 +38,7 @@ class Kernel:
         self._bind_medium(vol)
         self._bind_lattice(inputs)
         self.bands = inputs.bands
+        self.ray_spec = inputs.ray_spec  # the camera (what a per-camera cache is built for)
         self.terms = [(model, model.bind(self)) for model in inputs.models]
         #: motion blur: the velocity grid's x, y, z components (m/s), and each ray's time in s
         #: divided by the voxel side (set by ``trace``); None without blur

@@ -54,6 +54,9 @@ VERTEX_DIMENSIONS = NEE_DIMENSIONS + 10
 GUIDE = 0.5
 #: Russian roulette spares a path until its weight falls below this.
 ROULETTE = 0.25
+#: The step the in-scatter cache's hashes key on (with the voxel's index in place of the camera
+#: ray's): no camera ray takes 2³² − 1 steps, so the cache's samples are not a ray's.
+CACHE_STEP = 0xFFFFFFFF
 
 
 def _to_float(h, m=None):
@@ -76,6 +79,9 @@ class TracedMonteCarlo:
         self.sky = None if sky_xyz is None else [float(v) for v in sky_xyz]
         self.key = el.hash_key(seed)
         self.ops = el.drjit_ops(self.K.dr)
+        #: the (index, step) UInt lanes the hashes key on: None for the camera ray's index and
+        #: its step; the voxel index and :data:`CACHE_STEP` for the in-scatter cache (``mean``)
+        self.lanes = None
 
     def estimate(self, sigma_s):
         """Traced: σ_s × the mean over ``spp`` samples of the sampled part of J (XYZ per m)."""
@@ -92,10 +98,25 @@ class TracedMonteCarlo:
 
         return dr.if_stmt((sigma_s,), sigma_s > 0.0, run, lambda sigma_s: m.Array3f(0.0))
 
+    def mean(self, p, d, index):
+        """Traced: the mean over ``spp`` samples of the sampled lights' next events (XYZ per sr)
+        at positions p seen along unit d, one lane per ``index`` (UInt: a voxel's flat index,
+        hashed with :data:`CACHE_STEP` in place of a camera ray's and its step)."""
+        K = self.K
+        dr, m = K.dr, K.m
+        self.lanes = (index, m.UInt(CACHE_STEP))
+
+        def body(j, acc):
+            return j + 1, acc + self.next_events(p, d, self.uniforms(j, NEE_DIMENSIONS), j)
+
+        state = (m.UInt(0), dr.zeros(m.Array3f, dr.width(index)))
+        _, acc = dr.while_loop(state, lambda j, acc: j < self.spp, body, labels=("j", "J"))
+        return acc * (1.0 / self.spp)
+
     def uniforms(self, j, count: int, bounce=None, salt: int = 0) -> list:
         K = self.K
-        step = K.m.UInt(K.step_k)
-        hashes = el.uniforms(K.ray_index, step, j, self.key ^ salt, count, bounce)
+        index, step = self.lanes or (K.ray_index, K.m.UInt(K.step_k))
+        hashes = el.uniforms(index, step, j, self.key ^ salt, count, bounce)
         return [_to_float(h, K.m) for h in hashes]
 
     def sample(self, j):

@@ -1,0 +1,126 @@
+"""The in-scatter cache: the sampled lights' part of the in-scattered radiance (the fire's own
+light, skies, lat-long maps) estimated once per render at the voxel centres, for one camera,
+and interpolated at every sample of every camera ray.
+
+At a sample p of a camera ray along d, the single-scattering integrator adds σ_s(p)·J(p, d),
+
+    J(p, d) = ∫ p_HG(ω·d) L_i(p, ω) dω
+
+(Henyey–Greenstein phase included, g constant or a grid). For a pinhole camera at e the camera
+ray through p has exactly the direction d(p) = (p − e)/|p − e|; for an orthographic camera d is
+its forward everywhere. So for one camera J is a function of p alone, J_c(p) = J(p, d(p)).
+``in_scatter = "cache"`` estimates J_c at every voxel centre c that a trilinear lookup with
+σ_s > 0 can reach (within one voxel of a voxel with σ_s > 0), with ``cache_pairs`` samples of
+the per-sample estimator's own next events (``monte_carlo``: the fire's balance-weighted pairs,
+the sky's phase-sampled shadow, the maps' events), hashed by the voxel's index instead of a
+camera ray's; the camera march then adds σ_s(p)·trilinear(Ĵ_c)(p) — one lookup per sample
+instead of ``spp`` emission marches. (A lighting cache per view, as the irradiance volumes of
+Greger et al. 1998 are per scene; here the phase function is folded in because the view
+direction at a point is fixed by the camera.)
+
+Bias: only the trilinear interpolation of J_c between voxel centres — O(h²) where J_c is smooth,
+vanishing as the grid refines; the direction is exact at each centre. Noise: ``cache_pairs``
+samples per voxel, shared by every camera ray through it, so it shows as smooth blotches of a
+voxel's size rather than per-pixel grain, and does not fall with more rays per pixel (it falls
+with ``cache_pairs`` and with ``--batches``: each batch draws a new cache from its seed).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from incandescent.renderer.backends.sampling import blurs
+from incandescent.renderer.integrators import emission_light as el
+from incandescent.renderer.integrators.monte_carlo import CACHE_STEP
+
+#: How the sampled lights reach a camera ray's scattering samples: estimated at each sample
+#: (``spp`` samples) or interpolated from the per-camera cache (``cache_pairs`` per voxel).
+IN_SCATTER = ("per-sample", "cache")
+#: Samples per voxel centre of the cache (measured: ``benchmarks/scattering_cost.py``).
+CACHE_PAIRS = 16
+
+
+def refusal(integrator) -> str | None:
+    """Why ``integrator``'s ``in_scatter = "cache"`` cannot run, or None."""
+    if integrator.in_scatter != "cache":
+        return None
+    if integrator.max_bounces != 1:
+        return (
+            f"in_scatter 'cache' covers single scattering only (max_bounces 1); got "
+            f"max_bounces {integrator.max_bounces} (use in_scatter 'per-sample')"
+        )
+    if integrator.spectral_bins:
+        return (
+            f"in_scatter 'cache' runs in the grey band only; got spectral_bins "
+            f"{integrator.spectral_bins} (use in_scatter 'per-sample')"
+        )
+    return None
+
+
+def check_motion(spec, volume) -> None:
+    """Refuse a render whose gas moves during the shutter: the cache holds J at the frame's
+    positions, not at the advected ones a blurred ray samples."""
+    if spec is not None and blurs(spec, volume):
+        raise ValueError(
+            "in_scatter 'cache' does not cover motion blur (the cache holds the frame's "
+            "positions); render with in_scatter 'per-sample' or without a shutter"
+        )
+
+
+def needed_voxels(scattering: NDArray) -> NDArray[np.int64]:
+    """Flat (C order) indices of the voxel centres a trilinear lookup with σ_s > 0 reaches:
+    those within one voxel (a 3×3×3 neighbourhood) of a voxel with σ_s > 0."""
+    return np.flatnonzero(el._dilated(scattering) > 0.0)
+
+
+def centres_and_views(spec, shape: tuple[int, int, int], index: NDArray) -> tuple:
+    """(voxel centres (n, 3), the unit directions of the camera rays through them (n, 3)), in
+    voxel coordinates, float64: from the pinhole at ``spec.eye`` (its forward where a centre is
+    the eye itself), or the orthographic camera's forward."""
+    centres = np.stack(np.unravel_index(index, shape), axis=1).astype(np.float64) + 0.5
+    forward = np.asarray(spec.forward, dtype=np.float64)
+    forward = forward / np.linalg.norm(forward)
+    if not spec.perspective:
+        return centres, np.broadcast_to(forward, centres.shape).copy()
+    eye = (np.asarray(spec.eye) - np.asarray(spec.origin_m)) / spec.voxel_size_m
+    v = centres - eye
+    r = np.linalg.norm(v, axis=1)
+    at_eye = r < 1e-9
+    views = v / np.where(at_eye, 1.0, r)[:, None]
+    views[at_eye] = forward
+    return centres, views
+
+
+def traced(program, estimator) -> list:
+    """Traced: Ĵ_c's X, Y and Z as three Float grids (C order, 0 where not needed), evaluated
+    now — one kernel over the needed voxel centres as lanes (``estimator``: a
+    ``TracedMonteCarlo`` of single scattering with ``cache_pairs`` samples)."""
+    K = program.kernel
+    dr, m = K.dr, K.m
+    index = needed_voxels(K.volume.scattering_per_m)
+    size = int(np.prod(K.shape))
+    grids = [dr.zeros(m.Float, size) for _ in range(3)]
+    if index.size:
+        centres, views = centres_and_views(K.ray_spec, K.shape, index)
+        p, d = (m.Array3f(*(m.Float(a.astype(np.float32)) for a in v.T)) for v in (centres, views))
+        lanes = m.UInt(index.astype(np.uint32))
+        J = estimator.mean(p, d, lanes)
+        for a in range(3):
+            dr.scatter(grids[a], J[a], lanes)
+    dr.eval(grids)
+    return grids
+
+
+def reference(inputs, estimator) -> list[NDArray[np.float64]]:
+    """Float64: Ĵ_c's X, Y and Z as three grids of the volume's shape, the same samples as
+    :func:`traced` (``estimator``: a ``ReferenceMonteCarlo`` of single scattering)."""
+    shape = inputs.volume.shape
+    index = needed_voxels(inputs.volume.scattering_per_m)
+    flat = np.zeros((int(np.prod(shape)), 3))
+    if index.size:
+        centres, views = centres_and_views(inputs.ray_spec, shape, index)
+        step = np.full(index.size, CACHE_STEP, dtype=np.uint32)
+        J = estimator.total(centres, views, index.astype(np.uint32), step) / estimator.spp
+        flat[index] = J
+    return [flat[:, a].reshape(shape) for a in range(3)]
