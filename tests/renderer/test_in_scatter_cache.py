@@ -149,6 +149,14 @@ def test_motion_blur_with_the_cache_is_one_line():
     assert "\n" not in str(error.value)
 
 
+def test_a_rig_of_cameras_with_the_cache_is_one_line():
+    camera = inc.Camera(eye=(0.2, 0.1, 0.4), target=(0.04, 0.04, 0.04))
+    rig = inc.camera.Rig((camera, inc.Camera(eye=(-0.2, 0.1, 0.4), target=(0.04, 0.04, 0.04))))
+    with pytest.raises(ValueError, match="a rig of 2 cameras") as error:
+        inc.render(_blob(8), rig, inc.RenderSettings(width=8, height=4), integrator=_cached(1))
+    assert "\n" not in str(error.value)
+
+
 def test_the_default_estimates_at_every_sample():
     """``in_scatter`` defaults to today's estimator: the render is the one without the key."""
     volume = _blob(8)

@@ -58,10 +58,16 @@ def refusal(integrator) -> str | None:
     return None
 
 
-def check_motion(spec, volume) -> None:
-    """Refuse a render whose gas moves during the shutter: the cache holds J at the frame's
-    positions, not at the advected ones a blurred ray samples."""
-    if spec is not None and blurs(spec, volume):
+def check_camera(spec, volume) -> None:
+    """Refuse a render the cache of one camera's view directions does not describe: a rig of
+    several cameras, or gas that moves during the shutter (the cache holds J at the frame's
+    positions, not at the advected ones a blurred ray samples)."""
+    if len(spec.views) > 1:
+        raise ValueError(
+            f"in_scatter 'cache' is built for one camera's view directions; got a rig of "
+            f"{len(spec.views)} cameras (render each alone, or use in_scatter 'per-sample')"
+        )
+    if blurs(spec, volume):
         raise ValueError(
             "in_scatter 'cache' does not cover motion blur (the cache holds the frame's "
             "positions); render with in_scatter 'per-sample' or without a shutter"

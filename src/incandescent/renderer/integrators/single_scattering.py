@@ -266,7 +266,7 @@ class _Traced(ea._Traced):
         #: Ĵ_c's X, Y, Z grids (``in_scatter = "cache"``), else None
         self.cache = None
         if integrator.in_scatter == "cache" and self.sampled is not None:
-            cache.check_motion(kernel.ray_spec, vol)
+            cache.check_camera(kernel.ray_spec, vol)
             self.cache, self.sampled = cache.traced(self, self.sampled), None
         self.shadow_grids = None
         if integrator.shadows == "grid":
@@ -491,7 +491,7 @@ class _Reference(_ReferenceLights, ea._Reference):
             )
         self.cache = None
         if integrator.in_scatter == "cache" and self.sampled is not None:
-            cache.check_motion(inputs.ray_spec, vol)
+            cache.check_camera(inputs.ray_spec, vol)
             self.cache, self.sampled = cache.reference(inputs, self.sampled), None
         self.shadow_grids = None
         if integrator.shadows == "grid":
