@@ -68,7 +68,7 @@ def _one_line_error(result, pattern: str) -> None:
 
 def test_reconstruct_writes_the_volume_its_residuals_and_the_loss(case, one_thread):
     """8³ from six views of 12², 30 iterations at 4³ then 8³: the RMSE over the voxels above
-    1000 K under 60 K (the Python API on the same views: 31.6 K; at 15 iterations the fit is
+    1000 K under 60 K (the Python API on the same views: 17.7 K; at 15 iterations the fit is
     far from converged and ends anywhere from 55 K to 250 K with the scatter-adds' order)."""
     folder, truth, views, _ = case
     result = _run(folder, views, "--iterations", "30", "--levels", "2")

@@ -655,9 +655,9 @@ RECONSTRUCT = (
     Flag("absorption", float, "Constant absorption κ in 1/m (without --like).", default=10.0),
     Flag("iterations", int, "L-BFGS-B iterations per level.", default=100),
     Flag("levels", int, "Coarse-to-fine levels (1: the grid only; 3: 1/4, 1/2, 1).", default=3),
-    Flag("tv", float, "Total-variation weight, relative to the data term.", default=1e-3),
+    Flag("tv", float, "Total-variation weight, relative to the data term.", default=3e-3),
     Flag("tv_eps", float, "The TV's smoothing ε in K per voxel: a smoothness prior for steps "
-         "below it, edge-preserving above.", default=1.0, decls=("--tv-eps",)),
+         "below it, edge-preserving above.", default=100.0, decls=("--tv-eps",)),
     Flag("dark_fraction", float, "Hold voxels whose κ (and their neighbours') is at most this "
          "fraction of the largest at the floor, as those without κ are.", default=0.0),
     Flag("solve_absorption", bool, "Solve κ too, from the grid's κ as the first guess (emission "

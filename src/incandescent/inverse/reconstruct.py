@@ -117,15 +117,15 @@ class Settings:
 
     iterations: int = 100
     levels: int = 3
-    tv_weight: float = 1e-3
+    tv_weight: float = 3e-3
     #: the TV's smoothing ε, K per voxel: Σ √(|∇T|² + ε²) is quadratic (a smoothness prior)
     #: for steps well below ε and linear (edge-preserving) above
-    tv_eps_K: float = 1.0
+    tv_eps_K: float = 100.0
     floor_K: float = 300.0
     visible_K: float = 700.0
     ceiling_K: float = 4000.0
-    memory: int = 20
-    round: int = 25
+    memory: int = 50
+    round: int = 100
     power: float = 0.5
     axisymmetric: bool = False
     #: voxels whose κ, and their neighbours', is at most this fraction of the largest are held
