@@ -10,8 +10,9 @@ pixel and on 8×8-pixel blocks, relative to the converged image's RMS; the camer
 jittered (``--jitter`` to jitter them), so the noise is the fire's light's alone. Bias: the
 mean of the two seeds against a converged per-sample render (``--converged-spp`` pairs a
 sample), as the image's mean luminance and as the RMS over 8×8 blocks (which still holds the
-two seeds' block noise / √2). The verdict is the cheapest cache whose noise, pixel and block,
-is no worse than the per-sample default's (``spp`` 4).
+two seeds' block noise / √2). The verdicts: the cheapest cache whose noise, pixel and block
+(or pixel alone: the cache's noise is blotches of a voxel's size, which 8×8 blocks do not
+average away), is no worse than the per-sample default's (``spp`` 4).
 
 Usage: python benchmarks/fire_light_cost.py OUT.json [--resolution 128] [--rounds 5]
        [--backend cpu|cuda] [--pairs 1,2,4,8,16] [--converged-spp 64] [--jitter]
@@ -109,12 +110,15 @@ def main(argv: list[str] | None = None) -> dict:
         a, b = (np.asarray(run(lit, integrator, seed).luminance, np.float64) for seed in (1, 2))
         quality[name] = _quality(a, b, reference)
     default = quality[f"per_sample_spp{DEFAULT_SPP}"]
-    good = [
-        n for n in pairs
-        if quality[f"cache_{n}"]["noise_pixel"] <= default["noise_pixel"]
-        and quality[f"cache_{n}"]["noise_block"] <= default["noise_block"]
-    ]  # fmt: skip
-    chosen = f"cache_{min(good)}" if good else None
+
+    def cheapest(*kinds: str) -> str | None:
+        """The cheapest cache whose noise of each kind is no worse than the default's."""
+        good = [n for n in pairs if all(
+            quality[f"cache_{n}"][kind] <= default[kind] for kind in kinds)]  # fmt: skip
+        return f"cache_{min(good)}" if good else None
+
+    verdicts = {"pixel_and_block": cheapest("noise_pixel", "noise_block"),
+                "pixel": cheapest("noise_pixel")}  # fmt: skip
     report = {
         "scene": f"fire demo {dark.shape}, {args.resolution}² px, albedo 0.7, g 0.3, fire light",
         "backend": args.backend,
@@ -124,8 +128,10 @@ def main(argv: list[str] | None = None) -> dict:
         "quality": quality,
         "jitter": args.jitter,
         "converged": f"per-sample, {args.converged_spp} pairs a sample, seed 99",
-        "cheapest_cache_at_default_noise": chosen,
-        "its_ratio": None if chosen is None else medians[chosen] / base,
+        "cheapest_cache_at_default_noise": {
+            kinds: None if name is None else {"cache": name, "over_emission": medians[name] / base}
+            for kinds, name in verdicts.items()
+        },
         "default_ratio": medians[f"per_sample_spp{DEFAULT_SPP}"] / base,
     }
     args.out.write_text(json.dumps(report, indent=2) + "\n")

@@ -84,6 +84,23 @@ def spectral_demo(name: str, size: int) -> dict[str, tuple[inc.HDRImage, Display
     return {f"{name}_rayleigh": (image, _fixed(grey, scene.display))}
 
 
+def in_scatter_pair(size: int) -> dict[str, tuple[inc.HDRImage, DisplaySettings | None]]:
+    """The lit campfire demo (its fire's light and a sky, one order) with the fire's light and
+    the sky estimated at every sample (2 pairs, as ``incandescent demo campfire``) and from the
+    per-camera in-scatter cache (16 samples a voxel), one exposure."""
+    scene = SCENES["campfire"]
+    camera = scene.camera() if scene.camera else None
+    settings = inc.RenderSettings(width=size, height=size)
+    lit, integrator = api.demo_lighting("campfire", api.demo_volume("campfire"))
+    cached = replace(integrator, in_scatter="cache", cache_pairs=16)
+    images = {
+        "campfire_per_sample": inc.render(lit, camera, settings, integrator=integrator),
+        "campfire_cache": inc.render(lit, camera, settings, integrator=cached),
+    }
+    display = _fixed(images["campfire_per_sample"], scene.display)
+    return {name: (image, display) for name, image in images.items()}
+
+
 def _shadow_scene(n: int) -> inc.Volume:
     """A thin smoke floor under a dense, dark ball (the shadow caster), n voxels of 1 cm wide."""
     x, y, z = (np.indices((n, (3 * n) // 4, n)) + 0.5) / n
@@ -144,17 +161,28 @@ def main(argv: Sequence[str] | None = None) -> list[Path]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs")
     parser.add_argument("--quick", action="store_true", help="tiny renders (for tests)")
+    parser.add_argument("--only-in-scatter", action="store_true",
+                        help="only the per-sample / cached campfire pair")  # fmt: skip
     args = parser.parse_args(argv)
     page = PageImages(args.out, "scattering", "scripts/scattering_gallery.py")
     size = 32 if args.quick else 320
+    if args.only_in_scatter:
+        return _written(page, in_scatter_pair(size), ("campfire_per_sample", "campfire_cache"))
     images = {**fire_pair(size), **lit_demo("campfire", size), **lit_demo("explosion", size),
               **pbrt_pair(args.quick), **shadow_pair(size), **rayleigh_pair(size),
-              **spectral_demo("explosion", size)}  # fmt: skip
+              **spectral_demo("explosion", size), **in_scatter_pair(size)}  # fmt: skip
+    timed = ("fire_sunlit", "campfire_lit", "explosion_lit", "explosion_rayleigh", "d2_ours",
+             "campfire_per_sample", "campfire_cache")  # fmt: skip
+    return _written(page, images, timed)
+
+
+def _written(page: PageImages, images: dict, timed: Sequence[str]) -> list[Path]:
+    """Each image as a PNG of ``page``; the march time of those ``timed``."""
     written = [
         page.add(name, display_pixels(image, display), name.replace("_", ", "))
         for name, (image, display) in images.items()
     ]
-    for name in ("fire_sunlit", "campfire_lit", "explosion_lit", "explosion_rayleigh", "d2_ours"):
+    for name in timed:
         print(f"{name}: {images[name][0].metadata['seconds']:.2f} s march")
     return written
 

@@ -71,7 +71,8 @@ def test_scattering_gallery_renders_the_lit_smoke_brighter(tmp_path):
     names = [p.name.removesuffix(".png") for p in written]
     assert names == ["fire_dark", "fire_sunlit", "campfire_dark", "campfire_lit",
                      "explosion_dark", "explosion_lit", "d2_ours", "d2_pbrt", "shadow_point",
-                     "shadow_disk", "fire_grey", "fire_rayleigh", "explosion_rayleigh"]  # fmt: skip
+                     "shadow_disk", "fire_grey", "fire_rayleigh", "explosion_rayleigh",
+                     "campfire_per_sample", "campfire_cache"]  # fmt: skip
     pixels = {
         n: np.asarray(Image.open(p), dtype=float) for n, p in zip(names, written, strict=True)
     }
@@ -83,6 +84,8 @@ def test_scattering_gallery_renders_the_lit_smoke_brighter(tmp_path):
     assert (rayleigh[..., 2] > rayleigh[..., 0]).sum() > (grey[..., 2] > grey[..., 0]).sum()
     ours, theirs = pixels["d2_ours"].mean(), pixels["d2_pbrt"].mean()
     assert abs(ours / theirs - 1) < 0.1
+    cached, per_sample = pixels["campfire_cache"].mean(), pixels["campfire_per_sample"].mean()
+    assert abs(cached / per_sample - 1) < 0.1  # the in-scatter cache: the same picture
 
 
 def test_pyrometry_gallery_maps_the_flame_and_the_fire(tmp_path, capsys):
