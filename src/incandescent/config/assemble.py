@@ -88,7 +88,8 @@ def volume_from_section(
     read = source.read(sorted({n for n in roles.values() if n} | extra_grids))
     grids = read.arrays
     if spec.upres:
-        grids = _upresolved(spec, grids, str(roles["velocity"]), read.voxel_size_m, limits)
+        grids = _upresolved(spec, grids, str(roles["velocity"]), read.voxel_size_m, limits,
+                            source.path)  # fmt: skip
     by_role: dict[str, Any] = {role: grids[name] for role, name in roles.items() if name}
     by_role["species"] = {
         name: grids[value] if isinstance(value, str) else value
@@ -134,15 +135,20 @@ def _scattering(volume: Volume, spec: VolumeSection, grids) -> Volume:
 #: 24 fps, the simulator's default rate.
 UPRES_DT_S = 1.0 / 24.0
 #: Peak bytes per fine voxel while up-resolving: the noise's three complex128 potentials and
-#: curl, the float64 wavenumbers, the displacement and each grid's fine copy (~ 200 B).
-UPRES_BYTES_PER_FINE_VOXEL = 200
+#: curl, the float64 wavenumbers, the displacement and each grid's fine copy; the advected
+#: noise adds its phases' fine texture coordinates and their lookups (tracemalloc at 2× with two
+#: grids: 233 B fixed, 272 B advected).
+UPRES_BYTES_PER_FINE_VOXEL = 290
 
 
-def _upresolved(spec: VolumeSection, grids: dict, velocity: str, voxel_m, limits) -> dict:
+def _upresolved(spec: VolumeSection, grids: dict, velocity: str, voxel_m, limits,
+                path) -> dict:  # fmt: skip
     """The file's grids ``spec.upres`` times finer with sub-grid turbulence (``simulation.
     upres``) from the velocity grid (m/s); the velocity itself trilinearly up-sampled.
-    ``voxel_m``: the file's voxel (the section's ``voxel_size_m`` wins when given)."""
-    from incandescent.simulation.upres import upres_fields, upsample
+    ``voxel_m``: the file's voxel (the section's ``voxel_size_m`` wins when given). A file
+    numbered as a frame of a sequence (``fire_0120.npz``) takes its noise advected through the
+    frames before it (``_sequence``); a lone file, fixed noise."""
+    from incandescent.simulation.upres import advected_noise, upres_fields, upsample
 
     factor = int(spec.upres or 1)
     if not (spec.voxel_size_m or voxel_m):
@@ -157,9 +163,50 @@ def _upresolved(spec: VolumeSection, grids: dict, velocity: str, voxel_m, limits
     )
     speed = np.asarray(grids[velocity], dtype=np.float32) * spec.velocity_scale
     scalars = {k: v for k, v in grids.items() if k != velocity and np.ndim(v) == 3}
-    out = upres_fields(scalars, speed, voxel_m, factor, UPRES_DT_S)
+    noise = None
+    sequence = _sequence(Path(path), spec, velocity, speed.shape, limits)
+    if sequence is not None:
+        frame, history = sequence
+        noise = advected_noise(frame, speed.shape[:3], history, voxel_m, factor, UPRES_DT_S)
+    out = upres_fields(scalars, speed, voxel_m, factor, UPRES_DT_S, noise=noise)
     out[velocity] = np.stack([upsample(speed[..., a], factor) for a in range(3)], axis=-1)
     return out
+
+
+def _sequence(path: Path, spec: VolumeSection, velocity: str, shape, limits):
+    """(frame number, frame → that frame's velocity in m/s or None) when ``path`` is numbered
+    as a frame (``NAME_0120.ext``, ``NAME0120.ext``) and at least its predecessor is there with a
+    velocity grid of the same shape; else None. Frames read once each (cached)."""
+    import re
+
+    match = re.fullmatch(r"(.*?)(\d+)", path.stem)
+    if match is None:
+        return None
+    stem, digits = match.groups()
+    cache: dict[int, np.ndarray | None] = {}
+
+    def history(frame: int) -> np.ndarray | None:
+        if frame not in cache:
+            other = path.with_name(f"{stem}{frame:0{len(digits)}d}{path.suffix}")
+            cache[frame] = _frame_velocity(other, spec, velocity, shape, limits)
+        return cache[frame]
+
+    number = int(digits)
+    return (number, history) if history(number - 1) is not None else None
+
+
+def _frame_velocity(path: Path, spec: VolumeSection, velocity: str, shape, limits):
+    """``path``'s velocity grid in m/s, or None where the file, the grid or its shape is not
+    the sequence's (a gap in the sequence: the noise's advection restarts after it)."""
+    if not path.is_file():
+        return None
+    try:
+        source = open_grids(path, spec.axes, limits, spec.resolution)
+        grid = source.read([velocity]).arrays[velocity]
+    except (ValueError, KeyError, OSError):
+        return None
+    grid = np.asarray(grid, dtype=np.float32) * spec.velocity_scale
+    return grid if grid.shape == tuple(shape) else None
 
 
 def _velocity_grid(spec: VolumeSection, source, purpose: str | None = None) -> str:
