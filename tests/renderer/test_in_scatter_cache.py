@@ -1,7 +1,7 @@
 """The per-camera in-scatter cache (``renderer.integrators.in_scatter_cache``): against the
 transfer integral of a homogeneous emitting cube, against the per-sample estimator on the fire
-demo (its bias: the interpolation's and the logarithm's), backend parity with the same
-samples, and the combinations it refuses."""
+demo (its bias: the interpolation's and what is left of the logarithm's), backend parity with
+the same samples, and the combinations it refuses."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def test_a_homogeneous_emitting_cube_matches_the_transfer_integral(jit_backend):
     """The cube of ``test_emission_light`` (uniform T = 1800 K, κ = 6, σ_s = 14 per m, g = 0.3,
     16 voxels of 1 cm), its central pixel, with J cached at the voxel centres (256 samples
     each): within 0.1 % of the transfer integral, as the per-sample estimator at 1024 pairs
-    (measured 1.1e-4 and −1.3e-4 at two seeds on cpu: J of a homogeneous cube is smooth, its
+    (measured 1.3e-4 and −1.1e-4 at two seeds on cpu: J of a homogeneous cube is smooth, its
     interpolation nearly exact)."""
     n, h, kappa, sigma, g, temp = 16, 0.01, 6.0, 14.0, 0.3, 1800.0
     cube = inc.Volume.from_arrays(np.full((n,) * 3, temp), absorption=kappa, voxel_size_m=h)
@@ -43,13 +43,15 @@ def _blocks(y: np.ndarray) -> np.ndarray:
     return y.reshape(4, 8, 4, 8).mean(axis=(1, 3))
 
 
+@pytest.mark.slow
 def test_the_cache_converges_to_the_per_sample_render_of_the_fire_demo():
     """The fire demo lit by its own fire (albedo 0.7, g = 0.3, its 32 × 48 × 32 voxels), 32²
     pixels without jitter: the cache (64 samples a voxel) against the per-sample render (16
-    pairs a sample) — measured at seeds 0 and 1: mean −1.2 % and −1.7 %, median 8×8 block
-    0.988 and 0.984, worst bright block 2.9 % and 2.6 % off (the per-sample render's own block
-    noise ~0.6 %). The logarithm's bias falls with the samples: at 8 a voxel the mean is
-    −3.1 % and −3.2 %. (Interpolated linearly, J overshoots: +13.5 % at 128².)"""
+    pairs a sample) — measured at seeds 0 and 1: mean −0.95 % and −1.5 %, median 8×8 block
+    0.990 and 0.986, worst bright block 2.7 % and 2.4 % off (the per-sample render's own block
+    noise ~0.6 %); at 8 samples a voxel −1.5 % and −1.6 %, worst block 2.9 % and 3.5 %.
+    (Interpolated linearly, J overshoots: +13.5 % at 128²; in ln J without the Jensen
+    correction, −3.1 % at 8 samples a voxel.)"""
     lit = SCENES["fire"].build(None).with_scattering(albedo=0.7, phase_g=0.3)
     settings = inc.RenderSettings(width=32, height=32, jitter=False)
 
@@ -57,16 +59,16 @@ def test_the_cache_converges_to_the_per_sample_render_of_the_fire_demo():
         return inc.render(lit, None, settings, "cpu", integrator=integrator).luminance
 
     per_sample = luminance(SingleScattering(lights=FIRE, spp=16))
-    cached, few = luminance(_cached(64)), luminance(_cached(8))
-    assert -0.03 < cached.mean() / per_sample.mean() - 1.0 < 0.005
-    assert few.mean() < cached.mean()
     bright = _blocks(per_sample) > 0.05 * _blocks(per_sample).max()
-    ratio = _blocks(cached)[bright] / _blocks(per_sample)[bright]
-    assert abs(np.median(ratio) - 1.0) < 0.03
-    assert np.abs(ratio - 1.0).max() < 0.05
+    for pairs in (64, 8):
+        cached = luminance(_cached(pairs))
+        assert -0.025 < cached.mean() / per_sample.mean() - 1.0 < 0.005
+        ratio = _blocks(cached)[bright] / _blocks(per_sample)[bright]
+        assert abs(np.median(ratio) - 1.0) < 0.025
+        assert np.abs(ratio - 1.0).max() < 0.05
 
 
-def test_dr_jit_builds_the_reference_cache_with_the_same_samples():
+def test_dr_jit_builds_the_reference_cache_with_the_same_samples(jit_backend):
     """Both backends hash (voxel, sample) into the same directions: the float64 reference's
     cached render and Dr.Jit's agree to 1e-4 with the fire and a sky; another seed draws
     another cache."""
@@ -75,10 +77,10 @@ def test_dr_jit_builds_the_reference_cache_with_the_same_samples():
     settings = inc.RenderSettings(width=8, height=8)
     lit = _cached(2, lights=(EmissionLight(), EnvironmentLight(500.0)))
     ref = inc.render(volume, camera, settings, "reference", integrator=lit).xyz
-    cpu = inc.render(volume, camera, settings, "cpu", integrator=lit).xyz
+    cpu = inc.render(volume, camera, settings, jit_backend, integrator=lit).xyz
     assert np.abs(cpu - ref).max() < 1e-4 * np.abs(ref).max()
-    other = inc.render(volume, camera, inc.RenderSettings(width=8, height=8, seed=5), "cpu",
-                       integrator=lit).xyz  # fmt: skip
+    other = inc.render(volume, camera, inc.RenderSettings(width=8, height=8, seed=5),
+                       jit_backend, integrator=lit).xyz  # fmt: skip
     assert np.abs(other - cpu).max() > 1e-3 * np.abs(ref).max()
 
 

@@ -98,20 +98,23 @@ class TracedMonteCarlo:
 
         return dr.if_stmt((sigma_s,), sigma_s > 0.0, run, lambda sigma_s: m.Array3f(0.0))
 
-    def mean(self, p, d, index):
-        """Traced: the mean over ``spp`` samples of the sampled lights' next events (XYZ per sr)
-        at positions p seen along unit d, one lane per ``index`` (UInt: a voxel's flat index,
-        hashed with :data:`CACHE_STEP` in place of a camera ray's and its step)."""
+    def moments(self, p, d, index):
+        """Traced: the means over ``spp`` samples of the sampled lights' next events (XYZ per
+        sr) and of their squares, at positions p seen along unit d, one lane per ``index``
+        (UInt: a voxel's flat index, hashed with :data:`CACHE_STEP` in place of a camera ray's
+        and its step)."""
         K = self.K
         dr, m = K.dr, K.m
         self.lanes = (index, m.UInt(CACHE_STEP))
 
-        def body(j, acc):
-            return j + 1, acc + self.next_events(p, d, self.uniforms(j, NEE_DIMENSIONS), j)
+        def body(j, acc, squares):
+            x = self.next_events(p, d, self.uniforms(j, NEE_DIMENSIONS), j)
+            return j + 1, acc + x, dr.fma(x, x, squares)
 
-        state = (m.UInt(0), dr.zeros(m.Array3f, dr.width(index)))
-        _, acc = dr.while_loop(state, lambda j, acc: j < self.spp, body, labels=("j", "J"))
-        return acc * (1.0 / self.spp)
+        zero = dr.zeros(m.Array3f, dr.width(index))
+        _, acc, squares = dr.while_loop((m.UInt(0), zero, zero), lambda j, *_: j < self.spp,
+                                        body, labels=("j", "J", "J2"))  # fmt: skip
+        return acc * (1.0 / self.spp), squares * (1.0 / self.spp)
 
     def uniforms(self, j, count: int, bounce=None, salt: int = 0) -> list:
         K = self.K
@@ -241,8 +244,9 @@ class ReferenceMonteCarlo:
         d, camera-ray indices and steps, XYZ per m, (m, 3)."""
         return self.total(p, d, ray_index, step) * (sigma_s / self.spp)[:, None]
 
-    def total(self, p, d, ray_index, step) -> NDArray:
-        """The sum over ``spp`` samples of the sampled part of J, (m, :attr:`width`)."""
+    def total(self, p, d, ray_index, step, squares: NDArray | None = None) -> NDArray:
+        """The sum over ``spp`` samples of the sampled part of J, (m, :attr:`width`); the sum
+        of the squares of their next events is added to ``squares`` if given."""
         ray_index, step = ray_index.astype(np.uint32), step.astype(np.uint32)
         out = np.zeros((len(p), self.width))
         for j in range(self.spp):
@@ -250,7 +254,10 @@ class ReferenceMonteCarlo:
             u = [
                 _to_float(h) for h in el.uniforms(ray_index, step, sample, self.key, NEE_DIMENSIONS)
             ]
-            out += self.next_events(p, d, u, (ray_index, step, sample))
+            x = self.next_events(p, d, u, (ray_index, step, sample))
+            out += x
+            if squares is not None:  # the in-scatter cache's: single scattering, no paths
+                squares += x * x
             if self.max_bounces >= 2:
                 out += self.path(p, d, (ray_index, step, sample))
         return out
