@@ -315,10 +315,13 @@ def demo_volume(name: str, size: int | None = None, limits: Limits | None = None
     return scene.build(size or scene.default_size)
 
 
-def demo_lighting(name: str, volume, max_bounces: int | None = None, spp: int = 2):
+def demo_lighting(
+    name: str, volume, max_bounces: int | None = None, spp: int = 2, in_scatter: str = "per-sample"
+):
     """(volume, integrator) of demo ``name`` lit as its scene says (``Scene.lighting``), with
-    ``max_bounces`` orders (None: 1; 0: emission–absorption, today's image); (volume, None)
-    for a scene without lighting."""
+    ``max_bounces`` orders (None: 1; 0: emission–absorption, today's image) and its sampled
+    lights ``in_scatter`` (``SingleScattering``); (volume, None) for a scene without
+    lighting."""
     from incandescent.config.schema import LightSection
     from incandescent.renderer.integrators import MultipleScattering, SingleScattering
     from incandescent.scenes import SCENES
@@ -333,8 +336,10 @@ def demo_lighting(name: str, volume, max_bounces: int | None = None, spp: int = 
     lit = volume.with_scattering(albedo=lighting["albedo"], phase_g=lighting["phase_g"])
     lights = tuple(LightSection(**spec).light() for spec in lighting["lights"])
     if max_bounces is None or max_bounces == 1:
-        return lit, SingleScattering(lights=lights, spp=spp)
-    return lit, MultipleScattering(lights=lights, spp=spp, max_bounces=max_bounces)
+        return lit, SingleScattering(lights=lights, spp=spp, in_scatter=in_scatter)
+    return lit, MultipleScattering(
+        lights=lights, spp=spp, max_bounces=max_bounces, in_scatter=in_scatter
+    )
 
 
 def grid_report(path: Path, axes: str | None = None) -> tuple[list, list[str], dict[str, str]]:

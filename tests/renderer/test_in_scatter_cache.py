@@ -192,3 +192,26 @@ def test_the_flags_and_scene_keys_ask_for_the_cache(tmp_path):
         assert bad.exit_code == 2 and message in bad.output, bad.output
         assert len(bad.output.strip().splitlines()) == 1, bad.output
     assert not (tmp_path / "c.exr").exists()
+
+
+def test_the_lit_demo_renders_from_the_cache(tmp_path):
+    """``demo campfire --in-scatter cache`` is the campfire lit from the cache (its fire's light
+    and sky), close to the per-sample demo; with ``--max-bounces 3`` it is one line."""
+    from typer.testing import CliRunner
+
+    from incandescent.cli import app
+    from incandescent.io.images import read_exr
+
+    base = ["demo", "campfire", "--width", "24", "--height", "24"]
+    runs = {"cache": ["--in-scatter", "cache"], "per_sample": []}
+    for name, extra in runs.items():
+        result = CliRunner().invoke(app, [*base, *extra, "-o", str(tmp_path / f"{name}.exr")])
+        assert result.exit_code == 0, result.output
+    cached, per_sample = (read_exr(tmp_path / f"{n}.exr")[0] for n in runs)
+    meta = read_exr(tmp_path / "cache.exr")[1]
+    assert meta["in_scatter"] == "cache" and meta["cache_pairs"] == "16"
+    assert cached[..., 1].sum() == pytest.approx(per_sample[..., 1].sum(), rel=0.05)
+    bad = CliRunner().invoke(app, [*base, "--in-scatter", "cache", "--max-bounces", "3", "-o",
+                                   str(tmp_path / "bad.exr")])  # fmt: skip
+    assert bad.exit_code == 2 and "max_bounces 3" in bad.output, bad.output
+    assert not (tmp_path / "bad.exr").exists()

@@ -202,7 +202,8 @@ def demo(o: Given) -> None:
         api.check_image_outputs(output, None, o.overwrite)
         with console.status(f"building the {o.name} scene…"):
             volume = api.demo_volume(o.name, o.size, limits)
-            volume, lit = api.demo_lighting(o.name, volume, o.max_bounces)
+            volume, lit = api.demo_lighting(o.name, volume, o.max_bounces,
+                                            in_scatter=o.in_scatter or "per-sample")  # fmt: skip
         integrator = lit or integrator
         scene = SCENES[o.name]
         with console.status(f"rendering {settings.width}×{settings.height}…"):

@@ -273,11 +273,11 @@ LIGHTING = (
     MAX_BOUNCES := Flag("max_bounces", int, "Orders of scattering: 0 (no light scattered: "
                         "emission–absorption, lights dropped) | 1 (single scattering) | N >= 2 "
                         "(multiple scattering, Monte Carlo) [1 with lights, else 0]."),
-    Flag("in_scatter", str, "How the fire's light and skies reach the smoke in single "
-         "scattering: per-sample (estimated at every sample, --spp) | cache (estimated once per "
-         "render at the voxel centres for this camera, --cache-pairs each, and interpolated: "
-         "faster, biased by the interpolation on coarse grids) [per-sample].",
-         "integrator.in_scatter"),
+    IN_SCATTER := Flag("in_scatter", str, "How the fire's light and skies reach the smoke in "
+                       "single scattering: per-sample (estimated at every sample, --spp) | cache "
+                       "(estimated once per render at the voxel centres for this camera, "
+                       "--cache-pairs each, and interpolated: faster, slightly biased) "
+                       "[per-sample].", "integrator.in_scatter"),
     Flag("cache_pairs", int, "Samples per voxel of --in-scatter cache [16].",
          "integrator.cache_pairs"),
 )
@@ -539,6 +539,9 @@ DEMO = (
     FRAMES.but(default=250, help="plate: number of frames."),
     MAX_BOUNCES.but(help="campfire, explosion: orders of their smoke's scattering, 0 (dark "
                     "smoke: emission–absorption) | 1 | N >= 2 [1]."),
+    IN_SCATTER.but(help="campfire, explosion: their fire's light and sky estimated at every "
+                   "sample (per-sample) or from the per-camera cache (cache, 16 samples a "
+                   "voxel: faster, slightly biased) [per-sample]."),
     BRIGHTNESS.but(default="physical", help="physical | paper (the 2011 method)."),
     BACKEND.but(default="auto", help=BACKEND_CHOICES + "."),
     OVERWRITE.but(default=False, decls=(), help="Replace an existing output (plate: and render "
