@@ -15,7 +15,7 @@ two seeds' block noise / √2). The verdicts: the cheapest cache whose noise, pi
 average away), is no worse than the per-sample default's (``spp`` 4).
 
 Usage: python benchmarks/fire_light_cost.py OUT.json [--resolution 128] [--rounds 5]
-       [--backend cpu|cuda] [--pairs 1,2,4,8,16] [--converged-spp 64] [--jitter]
+       [--backend cpu|cuda] [--pairs 1,2,4,8,16] [--cells 1,2] [--converged-spp 64] [--jitter]
 """
 
 from __future__ import annotations
@@ -37,11 +37,20 @@ FIRE = (EmissionLight(),)
 DEFAULT_SPP = 4
 
 
-def _variants(pairs: list[int]) -> dict[str, SingleScattering]:
+def _variants(pairs: list[int], cells: list[int]) -> dict[str, SingleScattering]:
+    """The per-sample estimators and the caches: ``cache_N`` (a centre per voxel) and
+    ``cacheC_N`` (cells of C voxels a side), N samples a centre."""
     out = {f"per_sample_spp{n}": SingleScattering(lights=FIRE, spp=n) for n in (1, DEFAULT_SPP)}
-    for n in pairs:
-        out[f"cache_{n}"] = SingleScattering(lights=FIRE, in_scatter="cache", cache_pairs=n)
+    for c in cells:
+        for n in pairs:
+            out[_cache_name(n, c)] = SingleScattering(
+                lights=FIRE, in_scatter="cache", cache_pairs=n, cache_voxels=c
+            )
     return out
+
+
+def _cache_name(pairs: int, cell: int) -> str:
+    return f"cache_{pairs}" if cell == 1 else f"cache{cell}_{pairs}"
 
 
 def _blocks(y: np.ndarray) -> np.ndarray:
@@ -71,6 +80,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--backend", default="cpu", help="cpu or cuda")
     parser.add_argument("--pairs", default="1,2,4,8,16", help="cache_pairs to try")
+    parser.add_argument("--cells", default="1", help="cache_voxels to try (1, 2)")
     parser.add_argument("--converged-spp", type=int, default=64)
     parser.add_argument(
         "--jitter",
@@ -84,7 +94,8 @@ def main(argv: list[str] | None = None) -> dict:
     lit = dark.with_scattering(albedo=0.7, phase_g=0.3)
     camera = scene.camera() if scene.camera else None
     pairs = [int(n) for n in args.pairs.split(",")]
-    variants = _variants(pairs)
+    cells = [int(c) for c in args.cells.split(",")]
+    variants = _variants(pairs, cells)
 
     def run(volume, integrator, seed: int = 0):
         settings = RenderSettings(
@@ -113,9 +124,10 @@ def main(argv: list[str] | None = None) -> dict:
 
     def cheapest(*kinds: str) -> str | None:
         """The cheapest cache whose noise of each kind is no worse than the default's."""
-        good = [n for n in pairs if all(
-            quality[f"cache_{n}"][kind] <= default[kind] for kind in kinds)]  # fmt: skip
-        return f"cache_{min(good)}" if good else None
+        names = [_cache_name(n, c) for c in cells for n in pairs]
+        good = [name for name in names if all(
+            quality[name][kind] <= default[kind] for kind in kinds)]  # fmt: skip
+        return min(good, key=lambda name: medians[name]) if good else None
 
     verdicts = {"pixel_and_block": cheapest("noise_pixel", "noise_block"),
                 "pixel": cheapest("noise_pixel")}  # fmt: skip

@@ -280,6 +280,8 @@ LIGHTING = (
                        "[per-sample].", "integrator.in_scatter"),
     Flag("cache_pairs", int, "Samples per voxel of --in-scatter cache [16].",
          "integrator.cache_pairs"),
+    Flag("cache_voxels", int, "Voxels per side of --in-scatter cache's cells: 1 | 2 (8× fewer "
+         "estimates, interpolated over twice the distance) [1].", "integrator.cache_voxels"),
 )
 CAMERA = (
     Flag("eye", str, "Camera position X,Y,Z in m [three-quarter view].", "camera.eye", _vector),
@@ -436,7 +438,7 @@ def _bounces(bounces: int | None, out: dict) -> None:
         table["max_bounces"] = bounces
     if bounces == 0:  # today's image: no lights, nothing to sample
         out["light"] = []
-        for key in ("spp", "in_scatter", "cache_pairs"):
+        for key in ("spp", "in_scatter", "cache_pairs", "cache_voxels"):
             table.pop(key, None)
 
 

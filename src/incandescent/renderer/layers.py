@@ -29,7 +29,7 @@ from incandescent.renderer.integrators import Integrator, SingleScattering
 def _single(integrator: SingleScattering, lights) -> SingleScattering:
     """``integrator``'s single-scattering counterpart with ``lights`` (same spp, shadows, step)."""
     fields = {"spectral_bins", "emission", "shadows", "spp", "path_step_voxels", "in_scatter",
-              "cache_pairs"}  # fmt: skip
+              "cache_pairs", "cache_voxels"}  # fmt: skip
     return SingleScattering(lights=tuple(lights), **{k: getattr(integrator, k) for k in fields})
 
 

@@ -94,6 +94,8 @@ class SingleScattering(ea.EmissionAbsorption):
     path_step_voxels: float = 1.0
     in_scatter: str = "per-sample"
     cache_pairs: int = cache.CACHE_PAIRS
+    #: voxels per side of the cache's cells (``in_scatter_cache.CACHE_VOXELS``)
+    cache_voxels: int = 1
 
     name = "single_scattering"
 
@@ -113,6 +115,10 @@ class SingleScattering(ea.EmissionAbsorption):
         step = _validate.positive_scalar(self.path_step_voxels, "path_step_voxels")
         object.__setattr__(self, "path_step_voxels", float(step))
         _validate.choice(self.in_scatter, "in_scatter", cache.IN_SCATTER)
+        if self.cache_voxels not in cache.CACHE_VOXELS or isinstance(self.cache_voxels, bool):
+            raise ValueError(f"cache_voxels must be one of {cache.CACHE_VOXELS}; got "
+                             f"{self.cache_voxels!r}")  # fmt: skip
+        object.__setattr__(self, "cache_voxels", int(self.cache_voxels))
         problem = cache.refusal(self)
         if problem is not None:
             raise ValueError(problem)
@@ -135,7 +141,8 @@ class SingleScattering(ea.EmissionAbsorption):
         out = {**super().metadata(), "integrator": self.name, "lights": repr(self.lights)}
         sampled = self.max_bounces >= 2 or any(not isinstance(x, FixedLight) for x in self.lights)
         if sampled and self.in_scatter == "cache":
-            return out | {"in_scatter": "cache", "cache_pairs": self.cache_pairs}
+            extra = {"cache_voxels": self.cache_voxels} if self.cache_voxels != 1 else {}
+            return out | {"in_scatter": "cache", "cache_pairs": self.cache_pairs, **extra}
         return out | ({"spp": self.spp} if sampled else {})
 
     #: Orders of scattering (1 here; :class:`MultipleScattering` sets more).
@@ -268,7 +275,8 @@ class _Traced(ea._Traced):
         self.cache = None
         if integrator.in_scatter == "cache" and self.sampled is not None:
             cache.check_camera(kernel.ray_spec, vol)
-            self.cache, self.sampled = cache.traced(self, self.sampled), None
+            self.cell = integrator.cache_voxels
+            self.cache, self.sampled = cache.traced(self, self.sampled, self.cell), None
         self.shadow_grids = None
         if integrator.shadows == "grid":
             self.shadow_grids = [self.transmittance_grid(i) for i in range(len(self.lights))]
@@ -382,8 +390,7 @@ class _Traced(ea._Traced):
         K = self.kernel
         out = self.direct(K.position, K.at, K.ray_direction) * sigma_s
         if self.cache is not None:
-            J = K.dr.exp(K.m.Array3f(*(K.trilinear(grid, K.at) for grid in self.cache)))
-            out = K.dr.fma(J, sigma_s, out)
+            out = K.dr.fma(cache.lookup(K, self.cache, self.cell), sigma_s, out)
         if self.sampled is not None:
             out = out + self.sampled.estimate(sigma_s)
         return out
@@ -493,7 +500,8 @@ class _Reference(_ReferenceLights, ea._Reference):
         self.cache = None
         if integrator.in_scatter == "cache" and self.sampled is not None:
             cache.check_camera(inputs.ray_spec, vol)
-            self.cache, self.sampled = cache.reference(inputs, self.sampled), None
+            self.cell = integrator.cache_voxels
+            self.cache, self.sampled = cache.reference(inputs, self.sampled, self.cell), None
         self.shadow_grids = None
         if integrator.shadows == "grid":
             centres = np.indices(vol.shape, dtype=np.float64).reshape(3, -1).T + 0.5
@@ -550,7 +558,8 @@ class _Reference(_ReferenceLights, ea._Reference):
             direction = inputs.rays.direction[r[lit]]
             eta[lit] += sigma_s[lit, None] * self.direct(p[lit], direction)
         if lit.any() and self.cache is not None:
-            J = np.exp(np.stack([trilinear(grid, p[lit]) for grid in self.cache], axis=1))
+            q = p[lit] / self.cell
+            J = np.exp(np.stack([trilinear(grid, q) for grid in self.cache], axis=1))
             eta[lit] += sigma_s[lit, None] * J
         if lit.any() and self.sampled is not None:
             rows = r[lit]
