@@ -22,19 +22,24 @@ def _cached(pairs: int, lights=FIRE) -> SingleScattering:
     return SingleScattering(lights=lights, in_scatter="cache", cache_pairs=pairs)
 
 
+def _cube_pixel(backend: str, integrator):
+    """(the render of the emitting cube's central pixel, its transfer integral's luminance)."""
+    n, h, kappa, sigma, g, temp = 16, 0.01, 6.0, 14.0, 0.3, 1800.0
+    cube = inc.Volume.from_arrays(np.full((n,) * 3, temp), absorption=kappa, voxel_size_m=h)
+    cube = cube.with_scattering(sigma, phase_g=g)
+    camera = inc.Camera(eye=(0.0, 0.0, 1.0), target=(0.0, 0.0, 0.0), fov_deg=1.0)
+    settings = inc.RenderSettings(width=1, height=1, jitter=False)
+    got = inc.render(cube, camera, settings, backend, integrator=integrator)
+    return got, _cube_expected(n, h, kappa, sigma, g, temp)
+
+
 def test_a_homogeneous_emitting_cube_matches_the_transfer_integral(jit_backend):
     """The cube of ``test_emission_light`` (uniform T = 1800 K, κ = 6, σ_s = 14 per m, g = 0.3,
     16 voxels of 1 cm), its central pixel, with J cached at the voxel centres (256 samples
     each): within 0.1 % of the transfer integral, as the per-sample estimator at 1024 pairs
     (measured 1.3e-4 and −1.1e-4 at two seeds on cpu: J of a homogeneous cube is smooth, its
     interpolation nearly exact)."""
-    n, h, kappa, sigma, g, temp = 16, 0.01, 6.0, 14.0, 0.3, 1800.0
-    cube = inc.Volume.from_arrays(np.full((n,) * 3, temp), absorption=kappa, voxel_size_m=h)
-    cube = cube.with_scattering(sigma, phase_g=g)
-    camera = inc.Camera(eye=(0.0, 0.0, 1.0), target=(0.0, 0.0, 0.0), fov_deg=1.0)
-    settings = inc.RenderSettings(width=1, height=1, jitter=False)
-    got = inc.render(cube, camera, settings, jit_backend, integrator=_cached(256))
-    expected = _cube_expected(n, h, kappa, sigma, g, temp)
+    got, expected = _cube_pixel(jit_backend, _cached(256))
     assert got.luminance[0, 0] == pytest.approx(expected, rel=1e-3)
     assert got.metadata["in_scatter"] == "cache" and got.metadata["cache_pairs"] == 256
 
@@ -227,13 +232,7 @@ def test_a_cache_of_two_voxel_cells_matches_the_cube_and_the_reference(jit_backe
     backends draw the same samples (1e-4 of the peak, the fire and a sky); its cells reach one
     cell beyond the blocks within a voxel of σ_s > 0; a cell size other than 1 or 2 is one
     line."""
-    n, h, kappa, sigma, g, temp = 16, 0.01, 6.0, 14.0, 0.3, 1800.0
-    cube = inc.Volume.from_arrays(np.full((n,) * 3, temp), absorption=kappa, voxel_size_m=h)
-    cube = cube.with_scattering(sigma, phase_g=g)
-    camera = inc.Camera(eye=(0.0, 0.0, 1.0), target=(0.0, 0.0, 0.0), fov_deg=1.0)
-    settings = inc.RenderSettings(width=1, height=1, jitter=False)
-    got = inc.render(cube, camera, settings, jit_backend, integrator=_coarse(256))
-    expected = _cube_expected(n, h, kappa, sigma, g, temp)
+    got, expected = _cube_pixel(jit_backend, _coarse(256))
     assert got.luminance[0, 0] == pytest.approx(expected, rel=5e-3)
     assert got.metadata["cache_voxels"] == 2
     volume = _blob(8)
