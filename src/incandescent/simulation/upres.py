@@ -41,9 +41,10 @@ from scipy import ndimage
 
 #: The up-resolution factors offered: 2× (one octave of detail), 3×, 4× (two octaves).
 FACTORS = (2, 3, 4)
-#: Frames between a texture phase's resets (0.5 s at 24 fps): long enough that the detail is
-#: seen to travel, short enough that the advected coordinates do not stretch far (at a few m/s a
-#: gas parcel moves a few coarse cells in that time).
+#: Frames between a texture phase's resets (0.5 s at 24 fps): Neyret's regeneration period, a
+#: free (artistic) choice — long enough that the detail is seen to travel, short enough that the
+#: shearing flow does not stretch the advected noise into streaks (a parcel at 1 m/s crosses
+#: ~15 cells of the 48-cell campfire in that time).
 PERIOD_FRAMES = 12
 
 
