@@ -65,11 +65,7 @@ class Kernel:
             self.medium, self.brick_index, self.brick_shape = device_bricks_of(self.m, vol)
             self.scale = None
         else:
-            _, ny, nz = vol.shape
-            # C order; an axis one voxel thick steps 0 (both neighbours are its voxel)
-            self.strides = tuple(  # type: ignore[assignment]
-                0 if n == 1 else s for n, s in zip(vol.shape, (ny * nz, nz, 1), strict=True)
-            )
+            self.strides = dense_strides(vol.shape)
             self.medium, self.scale = device_grids(self.m, vol)
         kappa0 = vol.two_valued_absorption_per_m
         self.kappa0 = None if kappa0 is None else np.float32(kappa0)
@@ -113,7 +109,7 @@ class Kernel:
         return device_grid(self.m, self.volume, key, grid)
 
     # --- sampling -------------------------------------------------------------------------
-    def corners(self, p):
+    def corners(self, p, lattice=None):
         """Flat index of the lower trilinear neighbour of p and the weights along x, y, z.
 
         Voxel centres sit at i + 0.5. Dense grids are unpadded: p is clamped to the centres of
@@ -121,17 +117,19 @@ class Kernel:
         position in the outer half voxel takes the edge voxel's value (the edge rule, DESIGN §4)
         with the neighbours at fixed offsets and never outside the grid; an axis one voxel thick
         has both neighbours at that voxel. Bricks carry a one-voxel border (``bricks``).
+        ``lattice``: (shape, strides) of another dense grid, p in its cells (``dense_strides``).
         """
-        if self.brick_index is not None:
+        if lattice is None and self.brick_index is not None:
             return self.brick_corners(p)
+        shape, strides = lattice or (self.shape, self.strides)
         dr, m = self.dr, self.m
         base, weights = m.UInt(0), []
-        for a, n in enumerate(self.shape):  # n = 1: stride 0, both neighbours are the one voxel
+        for a, n in enumerate(shape):  # n = 1: stride 0, both neighbours are the one voxel
             u = dr.clip(p[a] + 0.5, 1.0, float(n))  # 1 + the coordinate from the first centre
             i0 = dr.minimum(m.UInt(u), max(n - 1, 1))  # the upper neighbour, 1..n − 1
             weights.append(u - m.Float(i0))
-            base += i0 * self.strides[a]
-        return base - sum(self.strides), weights
+            base += i0 * strides[a]
+        return base - sum(strides), weights
 
     def brick_corners(self, p):
         """:meth:`corners` in the bricks (grid coordinates padded by one voxel)."""
@@ -153,13 +151,13 @@ class Kernel:
         lx, ly, lz = (i0 & 7 for i0 in lower)
         return slot * BRICK_VOXELS + (lx * BRICK + ly) * BRICK + lz
 
-    def trilinear(self, grid, c, kind=None):
-        """Trilinear sample of a grid at corners ``c`` (:meth:`corners`): Float values, or (κ, T)
-        pairs packed in UInt64."""
+    def trilinear(self, grid, c, kind=None, strides=None):
+        """Trilinear sample of a grid at corners ``c`` (:meth:`corners`; ``strides``: of the
+        lattice they were taken on): Float values, or (κ, T) pairs packed in UInt64."""
         dr = self.dr
         kind = kind or self.m.Float
         base, (fx, fy, fz) = c
-        sx, sy, sz = self.strides
+        sx, sy, sz = strides or self.strides
 
         def fetch(index):
             if kind == "threshold":  # T; the occupancy from T itself (``threshold_K``)
@@ -263,3 +261,10 @@ class Kernel:
             t_exit = dr.minimum(t_exit, dr.select(dr.isinf(inv_d[a]), np.inf, t_axis))
         k_exit = dr.floor((t_exit - t0) / self.dt - j) + 1.0
         return dr.maximum(k_exit, k + 1.0)
+
+
+def dense_strides(shape: tuple[int, ...]) -> tuple[int, int, int]:
+    """C-order strides of a dense grid; an axis one voxel thick steps 0 (both trilinear
+    neighbours are its voxel)."""
+    _, ny, nz = shape
+    return tuple(0 if n == 1 else s for n, s in zip(shape, (ny * nz, nz, 1), strict=True))  # type: ignore[return-value]

@@ -42,6 +42,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from incandescent.renderer.backends.kernel import dense_strides
 from incandescent.renderer.backends.sampling import blurs
 from incandescent.renderer.integrators import emission_light as el
 from incandescent.renderer.integrators.monte_carlo import CACHE_STEP
@@ -188,29 +189,10 @@ def reference(inputs, estimator, cell: int = 1) -> list[NDArray[np.float64]]:
 def lookup(K, grids: list, cell: int):
     """Traced: Ĵ (XYZ per sr) at the sample, exp of the trilinear ln Ĵ: on the voxel grid at the
     sample's corners (``cell`` 1), else on the lattice at the sample's position / ``cell``
-    (centres at i + ½ there, edges extended as :meth:`Kernel.corners` does)."""
-    dr, m = K.dr, K.m
+    (its cells' centres at i + ½ there, edges as :meth:`Kernel.corners` has them)."""
     if cell == 1:
-        return dr.exp(m.Array3f(*(K.trilinear(grid, K.at) for grid in grids)))
+        return K.dr.exp(K.m.Array3f(*(K.trilinear(grid, K.at) for grid in grids)))
     shape = lattice(K.shape, cell)
-    strides = (shape[1] * shape[2] if shape[0] > 1 else 0, shape[2] if shape[1] > 1 else 0,
-               1 if shape[2] > 1 else 0)  # fmt: skip
-    base, weights = m.UInt(0), []
-    for a, n in enumerate(shape):
-        u = dr.clip(K.position[a] * (1.0 / cell) + 0.5, 1.0, float(n))
-        i0 = dr.minimum(m.UInt(u), max(n - 1, 1))
-        weights.append(u - m.Float(i0))
-        base += i0 * strides[a]
-    base = base - sum(strides)
-    fx, fy, fz = weights
-    sx, sy, sz = strides
-
-    def at(grid):
-        def lerp_x(offset):
-            a = dr.gather(m.Float, grid, base + offset)
-            return dr.fma(dr.gather(m.Float, grid, base + (offset + sx)) - a, fx, a)
-
-        c0 = dr.lerp(lerp_x(0), lerp_x(sy), fy)
-        return dr.lerp(c0, dr.lerp(lerp_x(sz), lerp_x(sy + sz), fy), fz)
-
-    return dr.exp(m.Array3f(*(at(grid) for grid in grids)))
+    strides = dense_strides(shape)
+    c = K.corners(K.position * (1.0 / cell), (shape, strides))
+    return K.dr.exp(K.m.Array3f(*(K.trilinear(grid, c, strides=strides) for grid in grids)))
