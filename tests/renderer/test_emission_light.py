@@ -248,3 +248,40 @@ def test_scene_files_and_flags_light_the_gas_with_its_own_fire(tmp_path):
     bad = runner.invoke(app, [*flags, "-o", str(tmp_path / "d.exr")])
     assert bad.exit_code == 2 and "spp must be an integer in 1..4096" in bad.output, bad.output
     assert not (tmp_path / "c.exr").exists() and not (tmp_path / "d.exr").exists()
+
+
+def _fire_behind_a_wall(kappa_wall: float) -> inc.Volume:
+    """A 16-voxel box of 1 cm, along z: a fire (z 1–4, 2000 K), an absorbing wall (z 7–12,
+    κ_wall per m, 200 K: below the tables, it emits nothing) across the whole box, and a sheet
+    of scattering gas (z 14–15, σ_s 30 per m); everything else cold and clear."""
+    n = 16
+    temp = np.full((n, n, n), 200.0)
+    kappa, sigma = np.zeros((n, n, n)), np.zeros((n, n, n))
+    temp[..., 1:5], kappa[..., 1:5] = 2000.0, 5.0
+    kappa[..., 7:13] = kappa_wall
+    sigma[..., 14:16] = 30.0
+    gas = inc.Volume.from_arrays(temp, absorption=kappa, voxel_size_m=0.01)
+    return gas.with_scattering(sigma, phase_g=0.0)
+
+
+@pytest.mark.parametrize("backend", ["reference", "jit"])
+def test_the_fire_s_light_stops_where_the_camera_march_does(backend, jit_backend):
+    """The fire lights the sheet only through the wall (optical depth ≥ 12 along every line
+    from the sheet to the fire). Its marches stop where the render's ``min_transmittance``
+    stops a camera ray's (10⁻⁴: depth 9.2): no light reaches the sheet, and the camera, stopped
+    in the wall too, sees nothing. At 10⁻⁷ (depth 16.1) both go through the wall: the sheet
+    is lit: every pixel brighter than without the fire's light (by ~2 %: the scattered light,
+    beside the fire seen directly through the wall)."""
+    backend = jit_backend if backend == "jit" else backend
+    gas = _fire_behind_a_wall(kappa_wall=12.0 / 0.06)
+    camera = inc.Camera(eye=(0.0, 0.0, 0.5), target=(0.0, 0.0, 0.0), fov_deg=10.0)  # centred box
+    lit = SingleScattering(lights=(EmissionLight(),), spp=8)
+
+    def image(min_transmittance: float, integrator) -> np.ndarray:
+        settings = inc.RenderSettings(width=4, height=4, min_transmittance=min_transmittance)
+        return inc.render(gas, camera, settings, backend, integrator=integrator).luminance
+
+    assert image(1e-4, lit).max() == 0.0
+    deep, unlit = image(1e-7, lit), image(1e-7, SingleScattering())
+    assert unlit.min() > 0.0  # the fire itself, seen through the wall
+    assert np.all(deep > 1.005 * unlit)

@@ -51,7 +51,8 @@ ISOTROPIC_G = 1e-3
 DIMENSIONS = 6
 #: Salts of the hash: the render's seed, the sample index, each dimension and the bounce.
 _KEY_SALT, _SAMPLE_MUL, _DIM_ADD, _BOUNCE_MUL = 0x2545F491, 0x9E3779B9, 0x6A09E667, 0x85EBCA6B
-#: The emission march stops once the optical depth exceeds this (e^−40 ≈ 4e-18), as shadows do.
+#: The emission march stops once the optical depth exceeds this (e^−40 ≈ 4e-18), as shadows do,
+#: or sooner where the render's ``min_transmittance`` says (:func:`max_depth`).
 MAX_DEPTH = 40.0
 
 #: The operations the direction samplers (here and ``environment_map``) need, from NumPy.
@@ -89,6 +90,18 @@ def uniforms(ray_index, step, sample, key: int, count: int, bounce=None) -> list
         h = lowbias32(h + _DIM_ADD)
         out.append(h >> 8)
     return out
+
+
+def max_depth(min_transmittance: float | np.floating) -> float:
+    """The optical depth at which an emission march stops: where the camera march stops, once
+    the transmittance falls below the render's ``min_transmittance`` (−ln 10⁻⁴ ≈ 9.2 at the
+    default), and at most :data:`MAX_DEPTH` (``min_transmittance`` 0). Light from behind it
+    reaches the scattering point attenuated by less than ``min_transmittance``, as light from
+    behind a camera ray's end reaches the camera. In the fire demo this changes the image by
+    −0.02 % and makes its 512² frame with the in-scatter cache (3 samples a voxel) cost 3.3× the
+    emission-only frame instead of 4.25× (``benchmarks/fire_light_cost.py``)."""
+    m = float(min_transmittance)
+    return MAX_DEPTH if m <= 0.0 else min(MAX_DEPTH, -float(np.log(m)))
 
 
 def orthonormal_basis(n, ops) -> tuple[tuple, tuple]:
@@ -272,15 +285,16 @@ class TracedEmissionLight:
 
     def radiance_along(self, p, w):
         """Traced: L_e(p, ω), the emission–absorption radiance reaching p from ω (XYZ), marched
-        at the program's ``path_dt`` from p to the box (midpoint samples, exact per segment)."""
+        at the program's ``path_dt`` from p to the box (midpoint samples, exact per segment), or
+        until its optical depth reaches :func:`max_depth`."""
         K, program = self.K, self.program
         dr, m = K.dr, K.m
         _, t_exit = clip_to_box(dr, m, p, w, K.shape)
 
-        dt = program.path_dt
+        dt, depth = program.path_dt, max_depth(K.min_tr)
 
         def cond(k, tau, L):
-            return (k * dt < t_exit) & (tau < MAX_DEPTH)
+            return (k * dt < t_exit) & (tau < depth)
 
         def body(k, tau, L):
             a = k * dt
@@ -367,11 +381,12 @@ class ReferenceEmissionLight:
         """L_e(p, ω) by the same march, with the exact emission terms."""
         program, inputs = self.program, self.inputs
         vol, dt = inputs.volume, program.path_dt
+        depth = max_depth(np.float32(inputs.settings.min_transmittance))
         _, t_exit = rays.clip_to_box(p, w, np.asarray(vol.shape, dtype=np.float64))
         tau, L, k = np.zeros(len(p)), np.zeros((len(p), 3)), 0
         while True:
             a = k * dt
-            live = np.flatnonzero((a < t_exit) & (tau < MAX_DEPTH))
+            live = np.flatnonzero((a < t_exit) & (tau < depth))
             if not live.size:
                 return L
             b = np.minimum(a + dt, t_exit[live])

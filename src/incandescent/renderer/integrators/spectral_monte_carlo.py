@@ -103,15 +103,15 @@ class TracedSpectralEmissionLight(el.TracedEmissionLight):
 
     def radiance_along(self, p, w) -> list:
         """Traced: L_e,b(p, ω) per band, marched at ``path_dt`` with κ_b, σ_s,b and the bins'
-        tables (exact per segment), until every band's optical depth passes ``MAX_DEPTH``."""
+        tables (exact per segment), until every band's optical depth passes ``max_depth``."""
         K, program = self.K, self.program
         dr, m = K.dr, K.m
         _, t_exit = clip_to_box(dr, m, p, w, K.shape)
-        dt, most = program.path_dt, program.most
+        dt, most, limit = program.path_dt, program.most, el.max_depth(K.min_tr)
         scales = list(zip(program.kappa_scale, program.sigma_scale, strict=True))
 
         def cond(k, tau_k, tau_s, L):
-            return (k * dt < t_exit) & (most * (tau_k + tau_s) < el.MAX_DEPTH)
+            return (k * dt < t_exit) & (most * (tau_k + tau_s) < limit)
 
         def body(k, tau_k, tau_s, L):
             a, b, c, kappa, temp, sigma = program.segment(p, w, k, dt, t_exit)
@@ -338,10 +338,11 @@ class ReferenceSpectralEmissionLight(el.ReferenceEmissionLight):
         ks, ss, dt = program.kappa_scale, program.sigma_scale, program.path_dt
         _, t_exit = rays.clip_to_box(p, w, np.asarray(vol.shape, dtype=np.float64))
         tau_k, tau_s, L, k = np.zeros(len(p)), np.zeros(len(p)), np.zeros((len(p), ks.size)), 0
+        limit = el.max_depth(np.float32(self.inputs.settings.min_transmittance))
         while True:
             a = k * dt
             depth = program.most * (tau_k + tau_s)
-            live = np.flatnonzero((a < t_exit) & (depth < el.MAX_DEPTH))
+            live = np.flatnonzero((a < t_exit) & (depth < limit))
             if not live.size:
                 return L
             b = np.minimum(a + dt, t_exit[live])
