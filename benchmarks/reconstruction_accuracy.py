@@ -172,6 +172,8 @@ def main() -> None:
     parser.add_argument("--power", type=float, default=Settings.power, help="the unknown's p")
     parser.add_argument("--dark", type=float, default=Settings.dark_fraction,
                         help="hold voxels with local κ ≤ this × the largest dark")  # fmt: skip
+    parser.add_argument("--gauss-newton", type=int, default=Settings.gauss_newton,
+                        help="Gauss–Newton steps after L-BFGS-B")  # fmt: skip
     parser.add_argument("--cases", default="all,few,noisy", help="all, few (4 views), noisy")
     parser.add_argument("--backend", default="cpu", choices=("cpu", "cuda", "reference"))
     parser.add_argument("--out", type=Path)
@@ -186,7 +188,8 @@ def main() -> None:
     plan = {"all": (args.views, 0.0), "few": (4, 0.0), "noisy": (args.views, 0.01)}
     options = {"iterations": args.iterations, "levels": args.levels, "tv_weight": args.tv,
                "tv_eps_K": args.tv_eps,
-               "power": args.power, "dark_fraction": args.dark}  # fmt: skip
+               "power": args.power, "dark_fraction": args.dark,
+               "gauss_newton": args.gauss_newton}  # fmt: skip
     rows = []
     for name in args.cases.split(","):
         count, noise = plan[name]

@@ -586,7 +586,7 @@ def reconstruct(o: Given) -> None:
             view.check_sees(grid)
         settings = Settings(iterations=o.iterations, levels=o.levels, tv_weight=o.tv,
                             tv_eps_K=o.tv_eps, axisymmetric=o.axisymmetric,
-                            dark_fraction=o.dark_fraction,
+                            dark_fraction=o.dark_fraction, gauss_newton=o.gauss_newton,
                             absorption=o.solve_absorption)  # fmt: skip
         if o.resume and not checkpoint.exists():
             raise ValueError(f"--resume: no checkpoint {checkpoint} to resume from")

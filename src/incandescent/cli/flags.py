@@ -663,6 +663,9 @@ RECONSTRUCT = (
     Flag("tv", float, "Total-variation weight, relative to the data term.", default=3e-3),
     Flag("tv_eps", float, "The TV's smoothing ε in K per voxel: a smoothness prior for steps "
          "below it, edge-preserving above.", default=100.0, decls=("--tv-eps",)),
+    Flag("gauss_newton", int, "Gauss–Newton steps at the finest level after L-BFGS-B (each "
+         "60 conjugate-gradient iterations of two renders and an adjoint; 0: none).",
+         default=0, decls=("--gauss-newton",)),
     Flag("dark_fraction", float, "Hold voxels whose κ (and their neighbours') is at most this "
          "fraction of the largest at the floor, as those without κ are.", default=0.0),
     Flag("solve_absorption", bool, "Solve κ too, from the grid's κ as the first guess (emission "

@@ -133,6 +133,10 @@ class Settings:
     dark_fraction: float = 0.0
     #: solve κ too, from the start's κ as the first guess (``absorption``: κ/κ_ref per voxel)
     absorption: bool = False
+    #: Gauss–Newton steps at the finest level after L-BFGS-B (``inverse.gauss_newton``; 0: none)
+    gauss_newton: int = 0
+    #: conjugate-gradient iterations per Gauss–Newton step
+    gauss_newton_cg: int = 60
 
     def __post_init__(self) -> None:
         for name in ("iterations", "levels", "memory", "round"):
@@ -147,6 +151,14 @@ class Settings:
             raise ValueError(f"tv_eps_K is {self.tv_eps_K:g}; expected > 0 K")
         if self.absorption and self.axisymmetric:
             raise ValueError("absorption and axisymmetric cannot be solved together yet")
+        if int(self.gauss_newton) < 0 or int(self.gauss_newton_cg) < 1:
+            raise ValueError(
+                f"gauss_newton is {self.gauss_newton} with gauss_newton_cg "
+                f"{self.gauss_newton_cg}; expected ≥ 0 steps of ≥ 1 iteration"
+            )
+        if self.gauss_newton and (self.absorption or self.axisymmetric):
+            raise ValueError("gauss_newton refines T on the voxels only (not with absorption "
+                             "or axisymmetric)")  # fmt: skip
         if not 0 <= self.dark_fraction < 1:
             raise ValueError(f"dark_fraction is {self.dark_fraction:g}; expected in [0, 1)")
 
@@ -472,6 +484,7 @@ def reconstruct(
             if checkpoint is not None:
                 save_checkpoint(checkpoint, state, fingerprint)
         if state.level == 0:
+            _refine(problem, state, table, checkpoint, fingerprint)
             break
         finer = level_volume(start, state.level - 1)
         shape = _unknown_shape(finer, settings)
@@ -479,6 +492,36 @@ def reconstruct(
         finer_v = np.stack([upsampled(part, each, 2) for part in parts]).reshape(shape)
         state = State(state.level - 1, 0, finer_v, state.losses)
     return _result(views, start, settings, table, state, backend)
+
+
+def _refine(problem: _Problem, state: State, table, checkpoint, fingerprint: str) -> None:
+    """``gauss_newton`` steps at the finest level (``inverse.gauss_newton``), counted on from
+    L-BFGS-B's iterations in ``state.done`` (a checkpoint after each, so a resumed run goes on
+    from the last)."""
+    from incandescent.inverse import gauss_newton as gn
+
+    settings = problem.settings
+    end = settings.iterations + settings.gauss_newton
+    if state.done >= end:
+        return
+    model = gn.Model(_targets(problem.views, problem.backend), problem.grid, settings,
+                     problem.backend, ~problem.dark, total_variation, _gradient)  # fmt: skip
+    temp, _ = table.temperature(state.v)
+    parts = model.residuals(temp)
+    loss = model.loss(temp, parts)
+    while state.done < end:
+        temp, parts, loss = gn.step(model, temp, parts, loss)
+        state.v, state.done = table.of(temp), state.done + 1
+        state.losses.append(loss)
+        if problem.progress is not None:
+            problem.progress(state.level, len(state.losses), loss)
+        if checkpoint is not None:
+            save_checkpoint(checkpoint, state, fingerprint)
+
+
+def _targets(views: Sequence[View], backend: str) -> list[tuple]:
+    """(camera or rig, settings, the input XYZ side by side) per group rendered together."""
+    return [(*_film(g), np.concatenate([v.xyz for v in g], axis=1)) for g in _films(views, backend)]
 
 
 def _initial(views, start, settings, backend, table, checkpoint, resume, fingerprint) -> State:
