@@ -105,8 +105,8 @@ def test_inverse_gallery_shows_the_gradients(tmp_path):
 
 
 def test_tomography_gallery_writes_its_cases(tmp_path):
-    """The worked examples at a tiny size (12³, 24², 5 iterations a level): three slice
-    pictures, the loss curves and the numbers, each case's loss falling."""
+    """The worked examples at a tiny size (12³, 24², 5 iterations a level): four slice
+    pictures (the last with Gauss–Newton steps), the loss curves and the numbers."""
     script = _load_script("tomography_gallery")
     written = script.main(["--out", str(tmp_path), "--size", "12", "--pixels", "24",
                            "--iterations", "5"])  # fmt: skip
@@ -114,11 +114,12 @@ def test_tomography_gallery_writes_its_cases(tmp_path):
         "ring12.png",
         "ring4.png",
         "noisy3.png",
+        "ring12gn.png",
         "losses.png",
         "cases.json",
     ]
     import json
 
     cases = json.loads(written[-1].read_text())
-    assert set(cases) == {"ring12", "ring4", "noisy3"}
+    assert set(cases) == {"ring12", "ring4", "noisy3", "ring12gn"}
     assert all(np.isfinite(c["rmse_hot_K"]) for c in cases.values())
