@@ -48,11 +48,16 @@ RATE_HZ = 24.0
 
 
 def sample_run(
-    diameter_m: float, heat_kW: float, resolution: int, seconds: float, backend: str = "cpu"
+    diameter_m: float,
+    heat_kW: float,
+    resolution: int,
+    seconds: float,
+    backend: str = "cpu",
+    combustion: str = "front",
 ) -> dict:
     """Per-sample series of one pool fire: luminous volume, tip height, layer presence and the
     centreline temperature (NumPy arrays), with the solver's cell size and wall time."""
-    settings = pool_fire(diameter_m, heat_kW, changes={"fps": RATE_HZ})
+    settings = pool_fire(diameter_m, heat_kW, changes={"fps": RATE_HZ}, combustion=combustion)
     solver = FireSolver(settings, resolution, backend)
     state, h = solver.initial_state(), solver.h
     volume, tip, present, centre = [], [], [], []
@@ -84,9 +89,10 @@ def measure(
     seconds: float,
     warmup: float,
     backend: str = "cpu",
+    combustion: str = "front",
 ):
     """The figures of one pool fire against the correlations (see the module docstring)."""
-    run = sample_run(diameter_m, heat_kW, resolution, seconds, backend)
+    run = sample_run(diameter_m, heat_kW, resolution, seconds, backend, combustion)
     keep = slice(round(warmup * RATE_HZ), None)
     h, ny = run["h"], run["shape"][1]
     z = (np.arange(ny) + 0.5) * h
@@ -97,6 +103,7 @@ def measure(
         "Q_kW": heat_kW,
         "resolution": resolution,
         "backend": backend,
+        "combustion": combustion,
         "shape": list(run["shape"]),
         "cells_across_D": diameter_m / h,
         "wall_s": run["wall_s"],
@@ -162,7 +169,7 @@ def run_pools(pools: list[tuple[float, ...]], args: argparse.Namespace) -> list[
     """``measure`` of every pool, ``args.jobs`` at a time (each in its own spawned process, as
     Dr.Jit's CUDA context is not fork-safe), the JSON rewritten as each one ends (so a run
     stopped early keeps the pools it finished), in the order of ``pools``."""
-    common = (args.resolution, args.seconds, args.warmup, args.backend)
+    common = (args.resolution, args.seconds, args.warmup, args.backend, args.combustion)
     context = multiprocessing.get_context("spawn")
     results: list[dict] = []
     with ProcessPoolExecutor(max_workers=max(args.jobs, 1), mp_context=context) as pool:
@@ -183,6 +190,9 @@ def main() -> None:
     parser.add_argument("--warmup", type=float, default=3.0)
     parser.add_argument("--pools", default="0.2:10,0.2:20,0.5:50,0.5:150,1.0:200,1.0:600")
     parser.add_argument("--backend", default="cpu", help="cpu or cuda")
+    parser.add_argument(
+        "--combustion", default="front", choices=("front", "mixing"), help="pool_fire's model"
+    )
     parser.add_argument("--jobs", type=int, default=1, help="pools run at once (own processes)")
     parser.add_argument("--plot", action="store_true")
     parser.add_argument("--again", action="store_true", help="remake OUT.md/.png from OUT.json")

@@ -108,11 +108,13 @@ def _speed_bound_m_s(settings) -> float:
     domain's height H from rest under the ideal gas's buoyancy, √(2 g (1 − T_air/T_max) H) (energy:
     no parcel gains more than its buoyant potential energy), plus the fastest jet and the
     front's expansion speed (ρ_f/ρ_h − 1)·S, which push gas without buoyancy, and the wind
-    that carries it all."""
+    that carries it all. A diffusion flame (``combustion = "mixing"``) has no front: its gas is at
+    most at t_max_K and expands in no step."""
     s, height = settings, settings.domain_m[1]
     rise = math.sqrt(2.0 * s.buoyancy_m_s2(s.t_max_K) * height)
     jet = max((source.jet_m_s for source in s.sources), default=0.0)
-    return rise + jet + (s.density_ratio - 1.0) * s.flame_speed_m_s + s.wind_m_s
+    expansion = (s.density_ratio - 1.0) * s.flame_speed_m_s if s.combustion == "front" else 0.0
+    return rise + jet + expansion + s.wind_m_s
 
 
 #: The presets, and pool fires still and in a wind, by the name the tests give them.
@@ -123,6 +125,7 @@ RUNS = {
     "explosion": lambda: preset("explosion"),
     "pool 0.5 m 50 kW": lambda: pool_fire(0.5, 50.0),
     "pool 0.5 m 50 kW, wind 2 m/s": lambda: pool_fire(0.5, 50.0, changes={"wind_m_s": 2.0}),
+    "pool 0.5 m 50 kW, diffusion flame": lambda: pool_fire(0.5, 50.0, combustion="mixing"),
 }
 
 

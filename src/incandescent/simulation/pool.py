@@ -21,30 +21,44 @@ from typing import Any
 
 import numpy as np
 
-from incandescent.simulation.settings import FireSettings, Source, air_density_kg_m3, from_changes
+from incandescent.simulation.settings import (
+    M_AIR_KG_MOL,
+    FireSettings,
+    Source,
+    air_density_kg_m3,
+    from_changes,
+)
 
 
 @dataclass(frozen=True)
 class Fuel:
     """What a pool fire needs of its fuel: ΔH_c (J/kg, net), the stoichiometric air-to-fuel mass
     ratio s, the laminar burning velocity S_L (m/s) and the adiabatic flame temperature (K) of
-    its stoichiometric mixture with air at 298 K and one atmosphere."""
+    its stoichiometric mixture with air at 298 K and one atmosphere, and its molar mass
+    (kg/mol: the vapour's density, the speed it leaves the pool at)."""
 
     heat_of_combustion_J_kg: float
     stoichiometric_air: float
     laminar_speed_m_s: float
     adiabatic_K: float
+    molar_mass_kg_mol: float
+
+    @property
+    def stoichiometric_mixture(self) -> float:
+        """Z_st = 1/(1 + s): the mixture fraction of the stoichiometric fuel–air mixture."""
+        return 1.0 / (1.0 + self.stoichiometric_air)
 
 
 #: ΔH_c: Tewarson, SFPE Handbook of Fire Protection Engineering (5th ed., 2016), Table A.39
 #: (methane 50.0, propane 46.0, n-heptane 44.6 MJ/kg); s from the reactions CₙH_m + (n + m/4)
 #: (O₂ + 3.76 N₂) (17.2, 15.7, 15.2); S_L: Law, Combustion Physics (2006) Fig. 7.5.1 and Davis &
 #: Law 1998 (Combust. Sci. Technol. 140:427) at φ = 1 (0.37, 0.39, 0.38 m/s); T_ad: Turns, An
-#: Introduction to Combustion (3rd ed., 2012), Table 2.1 at φ = 1 (2226, 2267, 2274 K).
+#: Introduction to Combustion (3rd ed., 2012), Table 2.1 at φ = 1 (2226, 2267, 2274 K); molar
+#: masses from the IUPAC atomic weights (CH₄ 16.04, C₃H₈ 44.10, C₇H₁₆ 100.20 g/mol).
 FUELS: dict[str, Fuel] = {
-    "methane": Fuel(50.0e6, 17.2, 0.37, 2226.0),
-    "propane": Fuel(46.0e6, 15.7, 0.39, 2267.0),
-    "heptane": Fuel(44.6e6, 15.2, 0.38, 2274.0),
+    "methane": Fuel(50.0e6, 17.2, 0.37, 2226.0, 0.01604),
+    "propane": Fuel(46.0e6, 15.7, 0.39, 2267.0, 0.04410),
+    "heptane": Fuel(44.6e6, 15.2, 0.38, 2274.0, 0.10020),
 }
 
 
@@ -76,32 +90,64 @@ def pool_fire(
     fuel: str = "methane",
     changes: Mapping[str, Any] | None = None,
     source: str | None = None,
+    combustion: str = "front",
 ) -> FireSettings:
     """A pool fire of ``diameter_m`` releasing ``heat_release_kW`` of ``fuel`` (see the module
     docstring), in :func:`pool_domain_m`'s box, the pool a disc on the floor; ``changes``: any
-    FireSettings keys over these (from ``source``, a file or flag; validated as a preset's)."""
+    FireSettings keys over these (from ``source``, a file or flag; validated as a preset's).
+    ``combustion`` (or the key of that name in ``changes``): "front", the premixed equivalent
+    burning at a front; "mixing", a diffusion flame fed the fuel alone at ṁ_f = Q/ΔH_c
+    (:func:`_diffusion_flame`)."""
+    changes = dict(changes or {})
+    combustion = changes.pop("combustion", combustion)  # a settings file may choose it too
+    if combustion not in ("front", "mixing"):
+        raise ValueError(f"pool fire: combustion must be 'front' or 'mixing'; got {combustion!r}")
     for name, value in (("diameter_m", diameter_m), ("heat_release_kW", heat_release_kW)):
         if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
             raise ValueError(f"pool fire: {name} must be a positive number; got {value!r}")
-    f, changes = fuel_named(fuel), dict(changes or {})
+    f = fuel_named(fuel)
     t_air = changes.get("t_air_K", 300.0)
     t_air = t_air if isinstance(t_air, int | float) and t_air > 0 else 300.0  # checked below
-    keys = {
-        "domain_m": pool_domain_m(diameter_m, heat_release_kW),
-        "flame_speed_m_s": f.laminar_speed_m_s,
-        "density_ratio": f.adiabatic_K / t_air,
-        "t_max_K": f.adiabatic_K,
-        "sources": (
-            Source(
-                kind="nozzle",
-                centre=(0.5, 0.02, 0.5),  # on the floor
-                radius_m=diameter_m / 2.0,
-                jet_m_s=inflow_m_s(diameter_m, heat_release_kW, f, t_air),
-            ),
-        ),
-    }
+    burn = _diffusion_flame if combustion == "mixing" else _premixed_equivalent
+    keys = {"domain_m": pool_domain_m(diameter_m, heat_release_kW), "t_max_K": f.adiabatic_K}
+    keys |= burn(diameter_m, heat_release_kW, f, t_air)
     where = f"pool fire D={diameter_m:g} m, Q={heat_release_kW:g} kW"
     return from_changes("campfire", keys | changes, f"{where}{', ' + source if source else ''}")
+
+
+def _premixed_equivalent(diameter_m, heat_release_kW, f: Fuel, t_air: float) -> dict:
+    """The fuel with its stoichiometric air entering over the pool (:func:`inflow_m_s`),
+    burning at S_L into products at T_ad (expanding by T_ad/T_air)."""
+    jet = inflow_m_s(diameter_m, heat_release_kW, f, t_air)
+    return {
+        "flame_speed_m_s": f.laminar_speed_m_s,
+        "density_ratio": f.adiabatic_K / t_air,
+        "sources": (
+            Source(kind="nozzle", centre=POOL_CENTRE, radius_m=diameter_m / 2.0, jet_m_s=jet),
+        ),
+    }
+
+
+def _diffusion_flame(diameter_m, heat_release_kW, f: Fuel, t_air: float) -> dict:
+    """The fuel alone, ṁ_f = Q/ΔH_c, leaving the pool at its vapour's speed ṁ_f/(ρ_f πD²/4)
+    (ρ_f the ideal gas's at T_air), burning where it has mixed to Z_st (``combustion =
+    "mixing"``): the heat released is Q, (1 − χ_r) of it carried by the gas."""
+    fuel_kg_s = heat_release_kW * 1e3 / f.heat_of_combustion_J_kg
+    vapour_kg_m3 = air_density_kg_m3(t_air) * f.molar_mass_kg_mol / M_AIR_KG_MOL
+    jet = fuel_kg_s / (vapour_kg_m3 * math.pi * diameter_m**2 / 4.0)
+    source = Source(
+        kind="nozzle", centre=POOL_CENTRE, radius_m=diameter_m / 2.0, jet_m_s=jet,
+        fuel_kg_s=fuel_kg_s,
+    )  # fmt: skip
+    return {
+        "combustion": "mixing",
+        "stoichiometric_mixture": f.stoichiometric_mixture,
+        "sources": (source,),
+    }
+
+
+#: The pool's centre, in domain fractions: on the floor.
+POOL_CENTRE = (0.5, 0.02, 0.5)
 
 
 # --- the correlations -----------------------------------------------------------------------
@@ -152,7 +198,8 @@ def wind_tilt_deg(
 
 def dominant_hz(signal: np.ndarray, rate_hz: float, lowest_hz: float = 0.5) -> float:
     """The frequency (Hz) of the largest peak of a signal's periodogram above ``lowest_hz``
-    (the mean removed, a Hann window; parabolic interpolation between bins)."""
+    (the mean removed, a Hann window; parabolic interpolation between bins where the largest
+    bin is a local peak — the first usable bin may lie on the flank of a lower one's)."""
     x = np.asarray(signal, dtype=float)
     x = (x - x.mean()) * np.hanning(x.size)
     power = np.abs(np.fft.rfft(x)) ** 2
@@ -162,7 +209,8 @@ def dominant_hz(signal: np.ndarray, rate_hz: float, lowest_hz: float = 0.5) -> f
     peak = float(k)
     if 0 < k < power.size - 1:
         a, b, c = np.log(power[k - 1 : k + 2] + 1e-300)
-        peak += 0.5 * (a - c) / (a - 2.0 * b + c) if a - 2.0 * b + c < 0 else 0.0
+        if b >= max(a, c) and a - 2.0 * b + c < 0:  # a local peak: its vertex is within ½ bin
+            peak += 0.5 * (a - c) / (a - 2.0 * b + c)
     return peak * rate_hz / x.size
 
 

@@ -268,7 +268,7 @@ def _check_finite(fields: dict[str, np.ndarray], frame: int, settings: FireSetti
 # --- checkpoints ---------------------------------------------------------------------------
 
 #: The solver's cell-centred fields a checkpoint holds (besides velocity_0..2 on the faces).
-STATE_FIELDS = ("phi", "temperature", "soot", "pressure")
+STATE_FIELDS = ("phi", "temperature", "soot", "pressure", "mixture")
 #: Its scalars: the run's identity (settings and resolution as JSON), frame format, frame, time.
 CHECKPOINT_SCALARS = ("identity", "format", "frame", "time_s", "steps")
 

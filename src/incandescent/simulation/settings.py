@@ -44,6 +44,11 @@ class Source(_Model):
     jet_m_s: float = Field(default=0.0, ge=0)
     start_s: float = Field(default=0.0, ge=0)
     stop_s: float | None = None
+    fuel_kg_s: float = Field(
+        default=0.0,
+        ge=0,
+        description="the fuel's mass flow (kg/s) with combustion = 'mixing'; 0 with 'front'",
+    )
 
 
 class Obstacle(_Model):
@@ -92,6 +97,23 @@ class FireSettings(_Model):
         "over the CFL number, and says so (progress line, diagnostics.jsonl)",
     )
     maccormack: bool = True
+    combustion: Literal["front", "mixing"] = Field(
+        default="front",
+        description="'front': Nguyen's premixed front (the level set); 'mixing': a diffusion "
+        "flame, the fuel burning where it has mixed with air (mixture fraction, fast chemistry)",
+    )
+    stoichiometric_mixture: float = Field(
+        default=0.055,
+        gt=0,
+        lt=1,
+        description="Z_st = 1/(1 + s), s the air-to-fuel mass ratio (combustion = 'mixing')",
+    )
+    radiant_fraction: float = Field(
+        default=0.2,
+        ge=0,
+        lt=1,
+        description="χ_r: the share of the heat radiated away (combustion = 'mixing')",
+    )
     flame_speed_m_s: float = Field(default=0.5, ge=0, description="S: the reaction front's speed")
     density_ratio: float = Field(
         default=5.0, ge=1, description="ρ_fuel/ρ_products: the front's expansion"
@@ -172,6 +194,7 @@ class FireSettings(_Model):
         if min(self.domain_m) <= 0:
             raise ValueError(f"domain_m must be positive; got {self.domain_m}")
         _check_sources_inside(self)
+        _check_fuel_flows(self)
         _check_below_sound(self)
         if self.wind_m_s > 0 and self.walls:
             raise ValueError(
@@ -197,6 +220,23 @@ def _check_sources_inside(settings: FireSettings) -> None:
             raise ValueError(
                 f"sources.{index}.centre: {list(source.centre)} is outside the domain; a centre "
                 f"is given in fractions 0..1 of domain_m ({size} m along x, y up, z)"
+            )
+
+
+def _check_fuel_flows(settings: FireSettings) -> None:
+    """A diffusion flame burns the fuel its sources feed (``fuel_kg_s`` > 0 each); the premixed
+    front ignores a fuel flow, so one set there would be silently unused: refused."""
+    for index, source in enumerate(settings.sources):
+        if settings.combustion == "mixing" and source.fuel_kg_s <= 0.0:
+            raise ValueError(
+                f"sources.{index}.fuel_kg_s: combustion = 'mixing' burns the fuel a source "
+                "feeds; give each source a fuel flow > 0 kg/s"
+            )
+        if settings.combustion == "front" and source.fuel_kg_s > 0.0:
+            raise ValueError(
+                f"sources.{index}.fuel_kg_s: {source.fuel_kg_s:g} kg/s is unused by combustion "
+                "= 'front' (the premixed front burns at flame_speed_m_s); set combustion = "
+                "'mixing' or fuel_kg_s = 0"
             )
 
 

@@ -63,7 +63,9 @@ class FireState:
     holds their flat arrays): ``velocity`` on the faces (cells/s, component a on the faces
     normal to axis a), and at the cell centres ``phi`` (cells; < 0 in the fuel),
     ``temperature`` (K), ``soot`` (unit density) and ``pressure``, the last projection's
-    (cells²/s, the next solve's first guess); the time (s) and the step count. Every cell field
+    (cells²/s, the next solve's first guess) and ``mixture``, the mixture fraction Z (the mass
+    fraction of gas that came from fuel; 0 with the premixed front); the time (s) and the step
+    count. Every cell field
     must lie on the cell centres of the velocity's grid (checked when the state is made)."""
 
     velocity: StaggeredField
@@ -71,6 +73,7 @@ class FireState:
     temperature: Field
     soot: Field
     pressure: Field
+    mixture: Field
     time_s: float = 0.0
     steps: int = 0
 
@@ -78,7 +81,7 @@ class FireState:
         if not isinstance(self.velocity, StaggeredField):
             raise TypeError(f"velocity must be a StaggeredField; got {type(self.velocity)}")
         centres = self.velocity.cells
-        for name in ("phi", "temperature", "soot", "pressure"):
+        for name in ("phi", "temperature", "soot", "pressure", "mixture"):
             field = getattr(self, name)
             if not isinstance(field, Field) or field.layout != centres:
                 where = field.layout if isinstance(field, Field) else type(field).__name__
@@ -153,6 +156,7 @@ class FireSolver:
         self.wind_faces = self._wind_faces()
         self.inflow_sign = [self._inflow_sign(a) for a in range(3)]
         self.sources = [self._source_distance(s) for s in settings.sources]
+        self.source_m3 = [float((self.ops.numpy(d) < 0.0).sum()) * self.h**3 for d in self.sources]
 
     # --- geometry --------------------------------------------------------------------------
     def _world(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -219,7 +223,7 @@ class FireSolver:
             ends[-1] = -1.0
         return self.ops.array(sign.ravel())
 
-    def _source_distance(self, source) -> object:
+    def _source_distance(self, source) -> Array:
         """Signed distance (cells) to a source's surface: < 0 inside. A source narrower than a
         cell is widened to one (a coarse grid still has its fire). A sphere's surface is
         rippled by ``noise`` × its radius (``_ripples``, seeded): a perfect sphere burns into
@@ -244,6 +248,7 @@ class FireSolver:
             self.velocity_field(velocity),
             self.cell_field(ops.full(n, PHI_LIMIT)),
             self.cell_field(ops.full(n, self.settings.t_air_K)),
+            self.cell_field(ops.full(n, 0.0)),
             self.cell_field(ops.full(n, 0.0)),
             self.cell_field(ops.full(n, 0.0)),
         )
@@ -272,6 +277,8 @@ class FireSolver:
 
     # --- one step --------------------------------------------------------------------------
     def step(self, state: FireState, dt: float) -> tuple[FireState, StepReport]:
+        if self.settings.combustion == "mixing":
+            return self._step_diffusion_flame(state, dt)
         ops, s = self.ops, self.settings
         u, step = state.velocity, ops.scalar(dt)  # Δt a kernel input
         velocity = [self._advect_velocity(u, a, step) for a in range(3)]
@@ -305,6 +312,85 @@ class FireSolver:
             steps=state.steps + 1,
         )
         return new, replace(report, dt_s=dt)
+
+    def _step_diffusion_flame(self, state: FireState, dt: float) -> tuple[FireState, StepReport]:
+        """One step of a diffusion flame (``combustion = "mixing"``): the mixture fraction Z and
+        soot advected and mixed, the sources' fuel fed in, the temperature Z's flame temperature
+        (``flame_temperature``), buoyancy and confinement, a divergence-free projection (the
+        heat's expansion is left out, as in the Boussinesq model the buoyancy uses)."""
+        ops = self.ops
+        u, step = state.velocity, ops.scalar(dt)
+        velocity = [self._advect_velocity(u, a, step) for a in range(3)]
+        mixture, soot = (
+            self._advect(q, self.centres, u, step, ambient=0.0) for q in (state.mixture, state.soot)
+        )
+        mixture, soot = self._mix(u, mixture, soot, step)
+        ops.evaluate(*velocity, mixture, soot)
+        mixture, velocity = self._feed(mixture, velocity, state, step)
+        temperature = self.flame_temperature(mixture)
+        velocity = self._forces(velocity, temperature, soot, step)
+        velocity = self._entrainment(velocity, step)
+        velocity, p, report = self.project(velocity, 0.0, state.pressure.values)
+        soot = self._soot(
+            temperature, mixture > self.settings.stoichiometric_mixture, soot, dt, step
+        )
+        phi = self.sheet_distance(mixture)
+        ops.evaluate(*velocity, phi, temperature, soot, p, mixture)
+        new = replace(
+            state,
+            velocity=self.velocity_field(velocity),
+            phi=state.phi.like(phi),
+            temperature=state.temperature.like(temperature),
+            soot=state.soot.like(soot),
+            pressure=state.pressure.like(p),
+            mixture=state.mixture.like(mixture),
+            time_s=state.time_s + dt,
+            steps=state.steps + 1,
+        )
+        return new, replace(report, dt_s=dt)
+
+    def _feed(self, mixture, velocity, state: FireState, step):
+        """Each active source's fuel, ``fuel_kg_s``, added to Z evenly over its cells (a mass
+        source of ṁ_f/(ρ_air V) per second, ρ_air the Boussinesq density of every parcel; Z
+        capped at 1, pure fuel); a nozzle's faces blow at ``jet_m_s``, the fuel's own speed."""
+        ops, s = self.ops, self.settings
+        for source, distance, volume_m3 in zip(
+            s.sources, self.sources, self.source_m3, strict=True
+        ):
+            if not self._active(source, state.time_s):
+                continue
+            inside = ops.select(distance < 0.0, 1.0, 0.0)
+            rate = source.fuel_kg_s / (air_density_kg_m3(s.t_air_K) * volume_m3)
+            mixture = ops.minimum(mixture + inside * (rate * step), 1.0)
+            if source.kind == "nozzle":
+                velocity = self._jet(velocity, distance, source.jet_m_s / self.h, state.steps)
+        return mixture, velocity
+
+    def flame_temperature(self, mixture):
+        """The temperature (K) of gas of mixture fraction Z under fast chemistry (Burke &
+        Schumann 1928: fuel and oxygen cannot coexist; the flame sheet is at Z_st), with the
+        radiant fraction χ_r of the heat lost: T = T_air + (1 − χ_r)(T_ad − T_air)·ψ(Z),
+        ψ = Z/Z_st on the lean side and (1 − Z)/(1 − Z_st) on the rich side; T_ad = ``t_max_K``.
+        On the lean side this is T_air + (1 − χ_r) Z ΔH_c/c_p: the heat of the fuel burnt in the
+        cell, since T_ad − T_air = Z_st ΔH_c/c_p. The state relation of FDS 5's mixture-fraction
+        model (McGrattan et al. 2007, FDS 5 Technical Reference Guide, NIST SP 1018-5, §5.1)."""
+        s, ops = self.settings, self.ops
+        z_st = s.stoichiometric_mixture
+        psi = ops.maximum(ops.minimum(mixture / z_st, (1.0 - mixture) / (1.0 - z_st)), 0.0)
+        return s.t_air_K + (1.0 - s.radiant_fraction) * (s.t_max_K - s.t_air_K) * psi
+
+    def sheet_distance(self, mixture):
+        """φ for a diffusion flame: the distance in cells to the flame sheet Z = Z_st,
+        (Z_st − Z)/|∇Z| to first order (< 0 on the fuel side), within ±PHI_LIMIT — where the
+        frames put the reaction zone's CH* and C₂*."""
+        ops, z_st = self.ops, self.settings.stoichiometric_mixture
+        field = self.cell_field(mixture)
+        grad = [central(ops, field, a).values for a in range(3)]
+        length = ops.sqrt(grad[0] ** 2 + grad[1] ** 2 + grad[2] ** 2) + 1e-6
+        return ops.clip((z_st - mixture) / length, -PHI_LIMIT, PHI_LIMIT)
+
+    def _active(self, source, time_s: float) -> bool:
+        return time_s >= source.start_s and (source.stop_s is None or time_s < source.stop_s)
 
     def _advect_velocity(self, u: StaggeredField, axis: int, step):
         """Face component ``axis`` advected; air entering through an open side *parallel* to it
@@ -374,9 +460,7 @@ class FireSolver:
     def _sources(self, phi, velocity, state: FireState):
         ops, s = self.ops, self.settings
         for source, distance in zip(s.sources, self.sources, strict=True):
-            if state.time_s < source.start_s or (
-                source.stop_s is not None and state.time_s >= source.stop_s
-            ):
+            if not self._active(source, state.time_s):
                 continue
             phi = ops.minimum(phi, distance)
             if source.kind == "nozzle":
@@ -474,10 +558,16 @@ class FireSolver:
         excess = ops.clip((temperature - s.t_air_K) / (s.t_max_K - s.t_air_K), 0.0, 1.0)
         temperature = temperature - step * s.cooling_K_s * excess**4
         temperature = ops.clip(temperature, s.t_air_K, s.t_max_K)
-        sooting = (temperature > s.soot_min_K) & (phi >= 0.0)
+        return temperature, self._soot(temperature, phi >= 0.0, soot, dt, step)
+
+    def _soot(self, temperature, burnt, soot, dt: float, step):
+        """Soot made at ``soot_rate_per_s`` where gas is hotter than ``soot_min_K`` on the side
+        ``burnt`` (the products of the premixed front; the fuel-rich side of a diffusion
+        flame, where soot forms), oxidised at ``soot_decay_per_s`` everywhere."""
+        ops, s = self.ops, self.settings
+        sooting = (temperature > s.soot_min_K) & burnt
         soot = soot + ops.select(sooting, step * s.soot_rate_per_s, 0.0)
-        soot = ops.maximum(soot * ops.scalar(math.exp(-s.soot_decay_per_s * dt)), 0.0)
-        return temperature, soot
+        return ops.maximum(soot * ops.scalar(math.exp(-s.soot_decay_per_s * dt)), 0.0)
 
 
 #: Random plane waves summed for a sphere source's ripples, and their wavelengths in radii.

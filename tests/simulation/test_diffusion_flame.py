@@ -1,0 +1,150 @@
+"""A diffusion flame (``combustion = "mixing"``): Burke & Schumann's flame temperature, the fuel
+fed at the rate asked for, the flame sheet where Z = Z_st, the fast backends against the float64
+reference, refusals, and a resumed run equal to an uninterrupted one."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from incandescent.simulation import FireSolver, preset
+from incandescent.simulation.pool import FUELS, pool_fire
+from incandescent.simulation.settings import air_density_kg_m3
+
+#: No buoyancy, confinement or source noise: only the feed and the fuel's own slow jet move gas.
+STILL = {"gravity_m_s2": 0.0, "vorticity": 0.0, "noise": 0.0, "walls": True}
+
+
+def _pool(resolution: int = 16, backend: str = "reference", **changes) -> FireSolver:
+    return FireSolver(
+        pool_fire(0.5, 50.0, changes=changes, combustion="mixing"), resolution, backend
+    )
+
+
+def test_the_flame_temperature_is_burke_and_schumann_s():
+    """T(Z) = T_air + (1 − χ_r)(T_ad − T_air) ψ(Z): T_air in air (Z = 0) and in pure fuel (Z = 1),
+    the peak at Z_st, linear on either side. On the lean side the excess is the heat of the
+    fuel burnt: (T − T_air)/Z = (1 − χ_r) ΔH_c / c_p, with c_p 1.2–1.6 kJ/(kg·K), the mean heat
+    capacity of hydrocarbon–air products between 300 K and T_ad (Turns 2012, Table 2.1)."""
+    solver = _pool()
+    s = solver.settings
+    z_st, peak = s.stoichiometric_mixture, (1 - s.radiant_fraction) * (s.t_max_K - s.t_air_K)
+    z = np.array([0.0, z_st / 2, z_st, (1 + z_st) / 2, 1.0])
+    expected = s.t_air_K + peak * np.array([0.0, 0.5, 1.0, 0.5, 0.0])
+    np.testing.assert_allclose(solver.flame_temperature(z), expected, rtol=1e-12, atol=1e-9)
+    lean = (solver.flame_temperature(np.array([0.01])) - s.t_air_K) / 0.01
+    cp = (1 - s.radiant_fraction) * FUELS["methane"].heat_of_combustion_J_kg / float(lean[0])
+    assert 1200.0 < cp < 1600.0
+    assert z_st == pytest.approx(1 / 18.2)
+
+
+def test_the_pool_feeds_its_fuel_at_the_rate_asked_for():
+    """In a closed, still box the fuel in the gas, Σ ρ_air Z h³, grows by ṁ_f = Q/ΔH_c each
+    second (1.0 g/s for 50 kW of methane): within 1 % after 10 steps (the fuel's own 8 mm/s jet
+    moves it less than a cell, and the semi-Lagrangian step does not conserve mass exactly)."""
+    solver = _pool(**STILL)
+    state, dt = solver.initial_state(), 0.02
+    for _ in range(10):
+        state, _ = solver.step(state, dt)
+    fuel_kg = air_density_kg_m3(300.0) * solver.ops.numpy(state.mixture.values).sum() * solver.h**3
+    fed_kg_s = 50e3 / FUELS["methane"].heat_of_combustion_J_kg
+    assert fuel_kg == pytest.approx(fed_kg_s * 10 * dt, rel=0.01)
+
+
+def test_the_flame_sheet_lies_where_the_mixture_is_stoichiometric():
+    """φ = (Z_st − Z)/|∇Z| on a Z falling linearly along x through Z_st at x₀ = 7.3 cells: the
+    signed distance x − x₀ in cells (to 1e-3: |∇Z| + 10⁻⁶ in the divisor), the fuel side
+    negative, and the frames' CH* peaks in the cell whose centre lies nearest x₀."""
+    from incandescent.simulation.frames import reaction_zone
+
+    solver = _pool()
+    x = solver.ops.numpy(solver.centres[0]).reshape(solver.shape)
+    z_st = solver.settings.stoichiometric_mixture
+    mixture = z_st - 0.004 * (x - 7.3)
+    phi = solver.ops.numpy(solver.sheet_distance(solver.ops.array(mixture.ravel())))
+    phi = phi.reshape(solver.shape)
+    inner = (slice(1, -1),) * 3  # central differences: one-sided at the sides
+    np.testing.assert_allclose(phi[inner], (x - 7.3)[inner], rtol=1e-3, atol=1e-3)
+    zone = reaction_zone(phi)[:, 5, 5]
+    assert int(np.argmax(zone)) == 7
+
+
+def test_the_jit_backends_burn_as_the_float64_reference(jit_backend):
+    """Eight steps of the pool at 24 cells from a rich blob of fuel (Z = 0.3) over it: every
+    field as the reference's within 1e-5."""
+    states = {}
+    for backend in ("reference", jit_backend):
+        solver = _pool(24, backend, pressure_tolerance=1e-6)
+        x, y, z = (solver.ops.numpy(p) for p in solver.centres)
+        blob = 0.3 * np.exp(-((x - 12) ** 2 + (y - 4) ** 2 + (z - 12) ** 2) / 8.0)
+        state = replace(solver.initial_state(), mixture=solver.cell_field(solver.ops.array(blob)))
+        for _ in range(8):
+            state, _ = solver.step(state, 1 / 48)
+        states[backend] = (solver, state)
+    (ref_solver, ref), (jit_solver, jit) = states["reference"], states[jit_backend]
+    for name in ("temperature", "soot", "mixture"):
+        a = jit_solver.ops.numpy(getattr(jit, name).values)
+        b = ref_solver.ops.numpy(getattr(ref, name).values)
+        assert np.abs(b).max() > 0
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-5 * np.abs(b).max())
+    for a in range(3):
+        u = jit_solver.ops.numpy(jit.velocity[a].values)
+        v = ref_solver.ops.numpy(ref.velocity[a].values)
+        np.testing.assert_allclose(u, v, rtol=1e-5, atol=1e-5 * np.abs(v).max())
+
+
+def test_a_diffusion_flame_lifts_and_heats_the_gas_above_the_pool():
+    """2 s at 24 cells (cpu): gas above 1000 K, the hottest no hotter than the flame's peak,
+    its heat carried up (Σ (T − T_air) w > 0 over the cells above the pool's layer), and soot
+    formed on the fuel side of the sheet. (At 24 cells the feed fills the pool's one layer of
+    8 cm cells to Z_st in about a second: before that the gas over it is too lean to pass
+    1000 K — 940 K at 0.5 s; at 1.5 s the starting plume's vortex ring still draws air down
+    the centreline.)"""
+    solver = _pool(24, "cpu")
+    s, state = solver.settings, solver.initial_state()
+    for _ in range(96):
+        state, _ = solver.step(state, 1 / 48)
+    t = solver.ops.numpy(state.temperature.values).reshape(solver.shape)
+    peak = s.t_air_K + (1 - s.radiant_fraction) * (s.t_max_K - s.t_air_K)
+    assert 1000.0 < t.max() <= peak + 1e-3
+    up = solver.ops.numpy(state.velocity[1].values).reshape(solver.face[1].shape)
+    w = 0.5 * (up[:, 1:-1] + up[:, 2:])  # at the centres of the cells above the first layer
+    assert float(((t[:, 1:] - s.t_air_K) * w).sum()) > 0.0
+    assert solver.ops.numpy(state.soot.values).max() > 0.0
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (lambda: preset("campfire", combustion="mixing"),
+         "sources.0.fuel_kg_s: combustion = 'mixing' burns the fuel a source feeds"),
+        (lambda: preset("torch", sources=[{"kind": "nozzle", "fuel_kg_s": 0.001}]),
+         "sources.0.fuel_kg_s: 0.001 kg/s is unused by combustion = 'front'"),
+        (lambda: pool_fire(0.5, 50.0, combustion="premixed"),
+         "combustion must be 'front' or 'mixing'; got 'premixed'"),
+        (lambda: pool_fire(0.5, 50.0, changes={"combustion": "fast"}),
+         "combustion must be 'front' or 'mixing'; got 'fast'"),
+    ],
+)  # fmt: skip
+def test_a_flame_without_its_fuel_is_refused_in_one_line(make, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(")) as error:
+        make()
+    assert "\n" not in str(error.value)
+
+
+def test_a_resumed_diffusion_flame_equals_an_uninterrupted_one(tmp_path):
+    """Its checkpoint carries the mixture fraction: 2 frames, then resumed to 3, equal 3 at once
+    (by then the fuel fed has burnt the gas over the pool to 427 K; a resume that lost Z would
+    restart the feed from nothing)."""
+    from incandescent.simulation import simulate
+
+    settings = pool_fire(0.5, 50.0, combustion="mixing")
+    simulate(settings, 16, 2, tmp_path / "a", backend="reference")
+    simulate(settings, 16, 3, tmp_path / "a", backend="reference")
+    simulate(settings, 16, 3, tmp_path / "b", backend="reference")
+    with np.load(tmp_path / "a/fire_0003.npz") as a, np.load(tmp_path / "b/fire_0003.npz") as b:
+        assert a["temperature"].max() > 400.0
+        np.testing.assert_array_equal(a["temperature"], b["temperature"])
+        np.testing.assert_array_equal(a["CH"], b["CH"])
