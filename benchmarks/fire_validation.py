@@ -53,7 +53,7 @@ def sample_run(
     resolution: int,
     seconds: float,
     backend: str = "cpu",
-    combustion: str = "front",
+    combustion: str = "mixing",
 ) -> dict:
     """Per-sample series of one pool fire: luminous volume, tip height, layer presence and the
     centreline temperature (NumPy arrays), with the solver's cell size and wall time."""
@@ -89,7 +89,7 @@ def measure(
     seconds: float,
     warmup: float,
     backend: str = "cpu",
-    combustion: str = "front",
+    combustion: str = "mixing",
 ):
     """The figures of one pool fire against the correlations (see the module docstring)."""
     run = sample_run(diameter_m, heat_kW, resolution, seconds, backend, combustion)
@@ -191,7 +191,7 @@ def main() -> None:
     parser.add_argument("--pools", default="0.2:10,0.2:20,0.5:50,0.5:150,1.0:200,1.0:600")
     parser.add_argument("--backend", default="cpu", help="cpu or cuda")
     parser.add_argument(
-        "--combustion", default="front", choices=("front", "mixing"), help="pool_fire's model"
+        "--combustion", default="mixing", choices=("front", "mixing"), help="pool_fire's model"
     )
     parser.add_argument("--jobs", type=int, default=1, help="pools run at once (own processes)")
     parser.add_argument("--plot", action="store_true")

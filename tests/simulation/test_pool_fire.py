@@ -23,7 +23,7 @@ from incandescent.simulation.settings import air_density_kg_m3
 
 
 @pytest.mark.parametrize("fuel", sorted(FUELS))
-def test_the_premixed_inflow_releases_the_heat_asked_for(fuel):
+def test_the_premixed_inflow_releases_the_heat_asked_for(fuel):  # combustion = "front"
     """The mixture entering over the pool, burnt to T_ad, carries Q: ṁ_mix c_p (T_ad − T_air)
     with ṁ_mix = ρ_air v πD²/4 and c_p the products' mean heat capacity — ≈ 1.4 kJ/(kg·K) for
     stoichiometric hydrocarbon–air products between 300 K and T_ad (Turns 2012 Table 2.1's T_ad
@@ -37,13 +37,27 @@ def test_the_premixed_inflow_releases_the_heat_asked_for(fuel):
 
 
 def test_a_pool_fire_is_a_nozzle_over_the_pool_in_a_box_around_its_flame():
+    """By default a diffusion flame fed the fuel alone: ṁ_f = Q/ΔH_c (2.17 g/s of propane for
+    100 kW), leaving the pool at ṁ_f/(ρ_f πD²/4) with ρ_f = 1.79 kg/m³ (propane vapour at 300 K:
+    1.177 × 44.10/28.96), Z_st = 1/(1 + 15.7); with combustion = "front" the premixed
+    equivalent, expanding by T_ad/T_air at the front."""
     s = pool_fire(0.5, 100.0, "propane")
     (source,) = s.sources
     assert source.kind == "nozzle" and source.radius_m == 0.25
     assert s.domain_m[0] == s.domain_m[2] == 1.5
     assert s.domain_m[1] >= 2.5 * heskestad_height_m(100.0, 0.5)
     assert s.t_max_K == FUELS["propane"].adiabatic_K
-    assert s.density_ratio == pytest.approx(FUELS["propane"].adiabatic_K / 300.0)
+    assert (s.combustion, s.density) == ("mixing", "ideal_gas")
+    assert source.fuel_kg_s == pytest.approx(100e3 / 46.0e6)
+    assert source.jet_m_s == pytest.approx(100e3 / 46.0e6 / (1.7924 * math.pi * 0.25**2), 1e-3)
+    assert s.stoichiometric_mixture == pytest.approx(1 / 16.7)
+    front = pool_fire(0.5, 100.0, "propane", combustion="front")
+    assert (front.combustion, front.density, front.sources[0].fuel_kg_s) == (
+        "front",
+        "boussinesq",
+        0,
+    )
+    assert front.density_ratio == pytest.approx(FUELS["propane"].adiabatic_K / 300.0)
 
 
 @pytest.mark.parametrize(

@@ -90,14 +90,15 @@ def pool_fire(
     fuel: str = "methane",
     changes: Mapping[str, Any] | None = None,
     source: str | None = None,
-    combustion: str = "front",
+    combustion: str = "mixing",
 ) -> FireSettings:
     """A pool fire of ``diameter_m`` releasing ``heat_release_kW`` of ``fuel`` (see the module
     docstring), in :func:`pool_domain_m`'s box, the pool a disc on the floor; ``changes``: any
     FireSettings keys over these (from ``source``, a file or flag; validated as a preset's).
-    ``combustion`` (or the key of that name in ``changes``): "front", the premixed equivalent
-    burning at a front; "mixing", a diffusion flame fed the fuel alone at ṁ_f = Q/ΔH_c
-    (:func:`_diffusion_flame`)."""
+    ``combustion`` (or the key of that name in ``changes``): "mixing", a diffusion flame fed
+    the fuel alone at ṁ_f = Q/ΔH_c, its gas with the ideal gas's inertia
+    (:func:`_diffusion_flame`); "front", the premixed equivalent burning at a front, with the
+    air's inertia everywhere (Boussinesq), as before issue 28's diffusion flame."""
     changes = dict(changes or {})
     combustion = changes.pop("combustion", combustion)  # a settings file may choose it too
     if combustion not in ("front", "mixing"):
@@ -131,7 +132,9 @@ def _premixed_equivalent(diameter_m, heat_release_kW, f: Fuel, t_air: float) -> 
 def _diffusion_flame(diameter_m, heat_release_kW, f: Fuel, t_air: float) -> dict:
     """The fuel alone, ṁ_f = Q/ΔH_c, leaving the pool at its vapour's speed ṁ_f/(ρ_f πD²/4)
     (ρ_f the ideal gas's at T_air), burning where it has mixed to Z_st (``combustion =
-    "mixing"``): the heat released is Q, (1 − χ_r) of it carried by the gas."""
+    "mixing"``): the heat released is Q, (1 − χ_r) of it carried by the gas. The gas moves with
+    its own inertia (``density = "ideal_gas"``): with the air's, the plume over a 0.5 m, 50 kW
+    pool rose at 0.7 m/s 0.19 m up and 1.7 m/s at 0.35 m, against McCaffrey's 3.0 and 4.1."""
     fuel_kg_s = heat_release_kW * 1e3 / f.heat_of_combustion_J_kg
     vapour_kg_m3 = air_density_kg_m3(t_air) * f.molar_mass_kg_mol / M_AIR_KG_MOL
     jet = fuel_kg_s / (vapour_kg_m3 * math.pi * diameter_m**2 / 4.0)
@@ -141,6 +144,7 @@ def _diffusion_flame(diameter_m, heat_release_kW, f: Fuel, t_air: float) -> dict
     )  # fmt: skip
     return {
         "combustion": "mixing",
+        "density": "ideal_gas",
         "stoichiometric_mixture": f.stoichiometric_mixture,
         "sources": (source,),
     }

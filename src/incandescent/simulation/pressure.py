@@ -16,6 +16,7 @@ iterations and the final relative residual are reported.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -161,22 +162,40 @@ def v_cycle(ops, levels: list[Level], b, depth: int = 0):
 
 
 def solve(
-    ops, levels: list[Level], b, tolerance: float = 1e-4, max_iterations: int = 200, guess=None
+    ops,
+    levels: list[Level],
+    b,
+    tolerance: float = 1e-4,
+    max_iterations: int = 200,
+    guess=None,
+    operator: Callable[[Any], Any] | None = None,
+    scale_cells=None,
 ):
     """x with A x = b (PCG, the V-cycle as preconditioner, from ``guess`` — the last step's
-    pressure — or 0); (x, SolveReport)."""
+    pressure — or 0); (x, SolveReport). ``operator``: another symmetric positive definite A of
+    the same grid (x ↦ A x; the variable-density projection's −∇·(β∇)), still preconditioned
+    by the constant-coefficient V-cycle, symmetrically scaled by ``scale_cells`` s (M⁻¹ r =
+    s V(s r); s = √(d/d_β), the ratio of the diagonals, makes the V-cycle see β's scale);
+    None: ``levels[0]``'s."""
     level = levels[0]
+    product = operator or (lambda x: apply(ops, level, x))
+
+    def precondition(r):
+        if scale_cells is None:
+            return v_cycle(ops, levels, r)
+        return scale_cells * v_cycle(ops, levels, scale_cells * r)
+
     scale = ops.max_abs(b)
     if scale == 0.0:
         return b * 0.0, SolveReport(0, 0.0)
     x = b * 0.0 if guess is None else guess
-    r = b - apply(ops, level, x)
+    r = b - product(x)
     if ops.max_abs(r) <= tolerance * scale:
         return x, SolveReport(0, ops.max_abs(r) / scale)
-    z = v_cycle(ops, levels, r)
+    z = precondition(r)
     p, rz = z, ops.sum(r * z)
     for iteration in range(1, max_iterations + 1):
-        ap = apply(ops, level, p)
+        ap = product(p)
         ops.evaluate(ap)
         alpha = ops.scalar(rz / ops.sum(p * ap))
         x, r = x + alpha * p, r - alpha * ap
@@ -184,7 +203,7 @@ def solve(
         relative = ops.max_abs(r) / scale
         if relative <= tolerance:
             return x, SolveReport(iteration, relative)
-        z = v_cycle(ops, levels, r)
+        z = precondition(r)
         rz_next = ops.sum(r * z)
         p, rz = z + ops.scalar(rz_next / rz) * p, rz_next
         ops.evaluate(p)

@@ -102,6 +102,11 @@ class FireSettings(_Model):
         description="'front': Nguyen's premixed front (the level set); 'mixing': a diffusion "
         "flame, the fuel burning where it has mixed with air (mixture fraction, fast chemistry)",
     )
+    density: Literal["boussinesq", "ideal_gas"] = Field(
+        default="boussinesq",
+        description="the gas's inertia: 'boussinesq', the air's everywhere; 'ideal_gas', its "
+        "own, ρ = ρ_air T_air/T (the variable-density projection: hot gas accelerates faster)",
+    )
     stoichiometric_mixture: float = Field(
         default=0.055,
         gt=0,
