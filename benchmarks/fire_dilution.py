@@ -36,7 +36,9 @@ HEIGHTS_M = (0.25, 0.5, 1.0, 1.5, 1.9)
 
 
 def centreline(resolution: int, changes: dict) -> dict:
-    settings = pool_fire(0.5, 50.0, changes={"fps": 24.0, "cooling_K_s": 0.0, **changes})
+    settings = pool_fire(
+        0.5, 50.0, changes={"fps": 24.0, "cooling_K_s": 0.0, **changes}, combustion="front"
+    )
     solver = FireSolver(settings, resolution, "cpu")
     state, rows, began = solver.initial_state(), [], time.perf_counter()
     ny = solver.shape[1]

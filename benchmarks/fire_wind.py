@@ -1,7 +1,8 @@
 """A pool fire in a wind: the flame's tilt against the AGA correlation (issue 28's optional wind).
 
-``pool_fire(D, Q)`` (methane) with ``wind_m_s`` u_w along +x, each wind of ``--winds`` run for
-``--seconds`` at 24 samples per second on ``--backend``; the first ``--warmup`` seconds dropped.
+``pool_fire(D, Q, combustion="front")`` (methane, the premixed equivalent) with ``wind_m_s``
+u_w along +x, each wind of ``--winds`` run for ``--seconds`` at 24 samples per second on
+``--backend``; the first ``--warmup`` seconds dropped.
 Measured over the rest: the tilt from the vertical of the luminous gas (T > 1000 K) below
 ``--flame-heights`` × Heskestad's flame height, atan(x̄ − x_pool, ȳ − y_pool) of its centroid (so
 the plume above the flame does not count), against the American Gas Association's cos θ = u*^(−½)
@@ -44,7 +45,7 @@ def tilt_deg(solver: FireSolver, state, below_m: float) -> float | None:
 
 
 def measure(d: float, q: float, wind: float, args: argparse.Namespace) -> dict:
-    settings = pool_fire(d, q, changes={"fps": RATE_HZ, "wind_m_s": wind})
+    settings = pool_fire(d, q, changes={"fps": RATE_HZ, "wind_m_s": wind}, combustion="front")
     solver = FireSolver(settings, args.resolution, args.backend)
     below = args.flame_heights * max(heskestad_height_m(q, d), d)
     state, tilts, began = solver.initial_state(), [], time.perf_counter()

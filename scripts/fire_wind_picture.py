@@ -23,7 +23,7 @@ WINDS_M_S = (0.0, 1.0, 2.0, 4.0)
 
 
 def panel(wind: float, resolution: int, frames: int) -> np.ndarray:
-    settings = pool_fire(0.5, 50.0, changes={"wind_m_s": wind})
+    settings = pool_fire(0.5, 50.0, changes={"wind_m_s": wind}, combustion="front")
     return last_frame(settings, resolution, frames, (192, 256))
 
 

@@ -39,15 +39,15 @@ def test_the_premixed_inflow_releases_the_heat_asked_for(fuel):  # combustion = 
 def test_a_pool_fire_is_a_nozzle_over_the_pool_in_a_box_around_its_flame():
     """By default a diffusion flame fed the fuel alone: ṁ_f = Q/ΔH_c (2.17 g/s of propane for
     100 kW), leaving the pool at ṁ_f/(ρ_f πD²/4) with ρ_f = 1.79 kg/m³ (propane vapour at 300 K:
-    1.177 × 44.10/28.96), Z_st = 1/(1 + 15.7); with combustion = "front" the premixed
-    equivalent, expanding by T_ad/T_air at the front."""
+    1.177 × 44.10/28.96), Z_st = 1/(1 + 15.7), no vorticity confinement (artistic); with
+    combustion = "front" the premixed equivalent, expanding by T_ad/T_air at the front."""
     s = pool_fire(0.5, 100.0, "propane")
     (source,) = s.sources
     assert source.kind == "nozzle" and source.radius_m == 0.25
     assert s.domain_m[0] == s.domain_m[2] == 1.5
     assert s.domain_m[1] >= 2.5 * heskestad_height_m(100.0, 0.5)
     assert s.t_max_K == FUELS["propane"].adiabatic_K
-    assert (s.combustion, s.density) == ("mixing", "ideal_gas")
+    assert (s.combustion, s.density, s.vorticity) == ("mixing", "ideal_gas", 0.0)
     assert source.fuel_kg_s == pytest.approx(100e3 / 46.0e6)
     assert source.jet_m_s == pytest.approx(100e3 / 46.0e6 / (1.7924 * math.pi * 0.25**2), 1e-3)
     assert s.stoichiometric_mixture == pytest.approx(1 / 16.7)
