@@ -22,6 +22,12 @@ One step (``FireSolver.step``), in the order of Fedkiw et al. 2001 §3 and Nguye
    radiative cooling dT/dt = −c_T ((T − T_air)/(T_max − T_air))⁴ (Nguyen eq. 9), clamped to
    [T_air, T_max]; soot produced at ``soot_rate`` where products are hotter than ``soot_min_K``,
    decaying (oxidised) at ``soot_decay``.
+
+A diffusion flame (``combustion = "mixing"``, ``_step_diffusion_flame``) replaces steps 2, 3
+and 6: the sources feed fuel into the mixture fraction Z, the temperature is Z's under fast
+chemistry (``flame_temperature``) and φ the distance to the flame sheet Z = Z_st. With
+``density = "ideal_gas"`` steps 4 and 5 give each parcel its own inertia, ρ = ρ_air T_air/T
+(buoyancy per its mass, the projection −∇·(β∇p) with β = T/T_air on the faces).
 """
 
 from __future__ import annotations
@@ -66,8 +72,8 @@ class FireState:
     ``temperature`` (K), ``soot`` (unit density) and ``pressure``, the last projection's
     (cells²/s, the next solve's first guess) and ``mixture``, the mixture fraction Z (the mass
     fraction of gas that came from fuel; 0 with the premixed front); the time (s) and the step
-    count. Every cell field
-    must lie on the cell centres of the velocity's grid (checked when the state is made)."""
+    count. Every cell field must lie on the cell centres of the velocity's grid (checked when
+    the state is made)."""
 
     velocity: StaggeredField
     phi: Field
@@ -353,8 +359,9 @@ class FireSolver:
 
     def _feed(self, mixture, velocity, state: FireState, step):
         """Each active source's fuel, ``fuel_kg_s``, added to Z evenly over its cells (a mass
-        source of ṁ_f/(ρ_air V) per second, ρ_air the Boussinesq density of every parcel; Z
-        capped at 1, pure fuel); a nozzle's faces blow at ``jet_m_s``, the fuel's own speed."""
+        source of ṁ_f/(ρ_air V) per second — Z is carried as in a flow of the air's density
+        throughout; the ideal gas's density enters the momentum only, ``density`` — Z capped at
+        1, pure fuel); a nozzle's faces blow at ``jet_m_s``, the fuel's own speed."""
         ops, s = self.ops, self.settings
         for source, distance, volume_m3 in zip(
             s.sources, self.sources, self.source_m3, strict=True
@@ -561,13 +568,9 @@ class FireSolver:
         ops = self.ops
         velocity = self._blow([velocity[a] * self.face_open[a] for a in range(3)])
         rhs = (target - self._divergence(velocity)) * self.fluid
-        weights = (
-            None
-            if inertia is None
-            else [w * m for w, m in zip(inertia, self.solved_faces, strict=True)]
-        )
-        operator = scale = None
-        if weights is not None:
+        operator = scale = weights = None
+        if inertia is not None:
+            weights = [w * m for w, m in zip(inertia, self.solved_faces, strict=True)]
             operator, scale = self._weighted_operator(weights)
         p, solve = pressure.solve(
             ops, self.levels, rhs, self.settings.pressure_tolerance, guess=guess,
