@@ -143,6 +143,7 @@ def measure(
         "centreline_excess_K": excess.tolist(),
         "mccaffrey_excess_K": mccaffrey_excess_K(z, heat_kW).tolist(),
         "volume_m3": run["volume"][keep].tolist(),
+        "presence": run["present"][keep].mean(axis=0).tolist(),
     }
 
 

@@ -103,6 +103,10 @@ def test_the_half_intermittency_height_of_a_flickering_tip():
     z = (np.arange(60) + 0.5) * cell
     present = z[None, :] < tips[:, None]
     assert intermittency_height_m(present, cell) == pytest.approx(1.5, abs=cell / 2)
+    present[:, :3] = False  # cold air in the layers under the pool (a fine grid's)
+    assert intermittency_height_m(present, cell) == pytest.approx(1.5, abs=cell / 2)
+    assert intermittency_height_m(present[:, :0], cell) == 0.0
+    assert intermittency_height_m(present & (z > 9.0), cell) == 0.0
 
 
 def test_the_slope_of_a_power_law():

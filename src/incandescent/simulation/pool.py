@@ -223,14 +223,17 @@ def dominant_hz(signal: np.ndarray, rate_hz: float, lowest_hz: float = 0.5) -> f
 def intermittency_height_m(present: np.ndarray, cell_m: float) -> float:
     """The height (m) where flame is present half the time: ``present`` (samples, heights) says
     whether each horizontal layer holds flame; its fraction over the samples, falling with
-    height, crosses ½ there (linear between layer centres)."""
+    height above the layer that holds flame most often (the pool's: on a fine grid the layers
+    under the pool's disc, which sits 0.02 of the domain up, hold air), crosses ½ there (linear
+    between layer centres). 0 if no layer holds flame half the time."""
     fraction = np.asarray(present, dtype=float).mean(axis=0)
-    above = np.nonzero(fraction < 0.5)[0]
-    if fraction.size == 0 or fraction[0] < 0.5:
+    if fraction.size == 0 or fraction.max() < 0.5:
         return 0.0
+    base = int(np.argmax(fraction))
+    above = np.nonzero(fraction[base:] < 0.5)[0]
     if above.size == 0:
         return fraction.size * cell_m
-    j = int(above[0])
+    j = base + int(above[0])
     t = (fraction[j - 1] - 0.5) / (fraction[j - 1] - fraction[j])
     return (j - 0.5 + t) * cell_m
 
