@@ -2,14 +2,17 @@
 fuel — and the correlations they are judged by (Cetegen & Ahmed's puffing, Heskestad's flame
 height, McCaffrey's plume), with the measurements that compare a simulation with them.
 
-The Nguyen et al. 2002 model burns a premixed "fuel" at a front moving at S. A pool fire is a
-diffusion flame, so :func:`pool_fire` feeds it the *premixed equivalent*: the fuel with its
-stoichiometric air, ṁ_f(1 + s) with ṁ_f = Q/ΔH_c, entering over the pool's disc at the speed that
-carries that mass at the air's density, burning at the fuel's laminar burning velocity S_L into
-products at its adiabatic flame temperature (expanding by T_ad/T_air, ideal gas at constant
-pressure). The heat released is then Q: ρ_mix V̇ c_p (T_ad − T_air) = ṁ_f ΔH_c. What this
-leaves out — that a real flame mixes its air in along its height, not at the pool — is what the
-validation (``benchmarks/fire_validation.py``, ``docs/simulation.md``) measures.
+A pool fire is a diffusion flame, and :func:`pool_fire` makes one by default (``combustion =
+"mixing"``): the fuel alone, ṁ_f = Q/ΔH_c, fed over the pool's disc at its vapour's speed and
+burning where it has mixed with air (the mixture fraction under fast chemistry, ``solver``), its
+gas moving with the ideal gas's inertia. With ``combustion = "front"`` it feeds Nguyen et al.
+2002's premixed front the *premixed equivalent* instead: the fuel with its stoichiometric air,
+ṁ_f(1 + s), entering over the disc at the speed that carries that mass at the air's density,
+burning at the fuel's laminar burning velocity S_L into products at its adiabatic flame
+temperature (expanding by T_ad/T_air, ideal gas at constant pressure). Either way the heat
+released is Q (ρ_mix V̇ c_p (T_ad − T_air) = ṁ_f ΔH_c for the premixed equivalent). How far each
+is from the correlations is what the validation (``benchmarks/fire_validation.py``,
+``docs/simulation.md``) measures.
 """
 
 from __future__ import annotations
@@ -135,7 +138,8 @@ def _diffusion_flame(diameter_m, heat_release_kW, f: Fuel, t_air: float) -> dict
     "mixing"``): the heat released is Q, (1 − χ_r) of it carried by the gas; no vorticity
     confinement (an artistic device that vanishes as h → 0). The gas moves with
     its own inertia (``density = "ideal_gas"``): with the air's, the plume over a 0.5 m, 50 kW
-    pool rose at 0.7 m/s 0.19 m up and 1.7 m/s at 0.35 m, against McCaffrey's 3.0 and 4.1."""
+    pool at 48 cells rose at 0.7 m/s 0.19 m up and 1.7 m/s at 0.35 m, against McCaffrey's 3.0
+    and 4.1."""
     fuel_kg_s = heat_release_kW * 1e3 / f.heat_of_combustion_J_kg
     vapour_kg_m3 = air_density_kg_m3(t_air) * f.molar_mass_kg_mol / M_AIR_KG_MOL
     jet = fuel_kg_s / (vapour_kg_m3 * math.pi * diameter_m**2 / 4.0)
