@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from _backends import ALL_BACKENDS
+from _backends import ALL_BACKENDS, assert_states_close
 
 from incandescent.simulation import FireSettings, FireSolver, Source, preset
 from incandescent.simulation.fields import Field
@@ -270,15 +270,7 @@ def test_the_jit_backends_step_as_the_float64_reference(jit_backend):
         for _ in range(3):
             state, _ = solver.step(state, 1 / 96)
         states[backend] = (solver, state)
-    (ref_solver, ref), (jit_solver, jit) = states["reference"], states[jit_backend]
-    for name in ("temperature", "soot", "phi"):
-        a = jit_solver.ops.numpy(getattr(jit, name).values)
-        b = ref_solver.ops.numpy(getattr(ref, name).values)
-        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-5 * np.abs(b).max())
-    for a in range(3):
-        u = jit_solver.ops.numpy(jit.velocity[a].values)
-        v = ref_solver.ops.numpy(ref.velocity[a].values)
-        np.testing.assert_allclose(u, v, rtol=1e-5, atol=1e-5 * np.abs(v).max())
+    assert_states_close(states["reference"], states[jit_backend], ("temperature", "soot", "phi"))
 
 
 def test_settings_reject_unknown_keys_and_impossible_values():

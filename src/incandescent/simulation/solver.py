@@ -591,9 +591,8 @@ class FireSolver:
         ops = self.ops
         faces = self.velocity_field(weights)
         diagonal = sum(2.0 * face_mean(ops, faces[a], a).values for a in range(3))
-        fluid = self.fluid > 0.0
         constant = pressure.diagonal(ops, self.levels[0])
-        scale = ops.select(fluid, ops.sqrt(constant / ops.maximum(diagonal, 1e-30)), 1.0)
+        scale = ops.select(self.fluid > 0.0, ops.sqrt(constant / ops.maximum(diagonal, 1e-30)), 1.0)
         ops.evaluate(scale)
         return (lambda x: self._weighted_laplacian(x, weights)), scale
 
