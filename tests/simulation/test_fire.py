@@ -61,6 +61,26 @@ def test_projection_leaves_the_divergence_it_is_asked_for():
     assert 0 < report.pressure_iterations < 40
 
 
+def test_v_cycle_preconditioner_is_symmetric_positive_definite(monkeypatch):
+    """CG needs M⁻¹ symmetric positive definite: the V-cycle (Jacobi before and after, R = Pᵀ,
+    the softer coarse operators of ``COARSE_RATIO``) applied to unit vectors on an 8-cell grid
+    with an obstacle gives a symmetric matrix with positive eigenvalues; with a Jacobi weight
+    of 1.6 (2D/ω − A indefinite) it is not positive definite — the check can fail."""
+    from incandescent.simulation import pressure
+
+    solver = _solver(resolution=8, obstacles=({"kind": "box", "size": (0.3, 0.3, 0.3)},))
+
+    def smallest_eigenvalue():
+        unit = np.eye(solver.levels[0].layout.size)
+        m = np.stack([pressure.v_cycle(solver.ops, solver.levels, e) for e in unit], 1)
+        np.testing.assert_allclose(m, m.T, atol=1e-12 * np.abs(m).max())
+        return np.linalg.eigvalsh(0.5 * (m + m.T)).min()
+
+    assert smallest_eigenvalue() > 0
+    monkeypatch.setattr(pressure, "JACOBI_WEIGHT", 1.6)
+    assert smallest_eigenvalue() < 0
+
+
 def test_pressure_operator_is_the_assembled_laplacian():
     """The compact per-cell code applied to unit vectors gives −∇² assembled face by face: 1 per
     face to a fluid cell (off-diagonal −1), 1 on the diagonal per open-air face, nothing across

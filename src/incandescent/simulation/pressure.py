@@ -7,11 +7,14 @@ adds 1 to d_c, a face to open air (the domain's open sides and top) adds 1 to d_
 it). Solid cells are not unknowns (d = 1, φ = 0). A is symmetric positive definite.
 
 Preconditioner (McAdams, Sifakis & Teran 2010, simplified): one V-cycle with damped Jacobi
-smoothing (ω = 0.8, one sweep before and one after), restriction R = sum over the 8 children and
-piecewise-constant prolongation P = Rᵀ, and coarse operators 4 × the rediscretised unit Laplacian
-of the coarsened masks (the Galerkin product PᵀAP of interior cells). Jacobi and R = Pᵀ keep the
-V-cycle symmetric, as CG needs. The solve stops when max|r| ≤ ``tolerance`` · max|b|; the
-iterations and the final relative residual are reported.
+smoothing (ω = 0.9, one sweep before and one after), restriction R = sum over the 8 children and
+piecewise-constant prolongation P = Rᵀ, and coarse operators ``COARSE_RATIO`` = 3 per level × the
+rediscretised unit Laplacian of the coarsened masks — softer than the Galerkin product PᵀAP of
+interior cells (4 per level), which with piecewise-constant transfers is too stiff for smooth
+errors (by 2 per level: it under-corrects them; Braess 1995's over-correction of aggregation
+multigrid). Jacobi and R = Pᵀ keep the V-cycle symmetric, and ω < 1 (2D/ω − A positive
+definite) keeps it positive definite, as CG needs (tested). The solve stops when
+max|r| ≤ ``tolerance`` · max|b|; the iterations and the final relative residual are reported.
 """
 
 from __future__ import annotations
@@ -24,11 +27,18 @@ import numpy as np
 
 from incandescent.simulation.grid import Layout, cells, flat_index, indices
 
-#: Damped Jacobi (ω below 6/7, the best smoothing weight of the 7-point Laplacian in 3-D), one
-#: sweep before and after: measured on a 128³ solve 0.51 s (24 iterations) against 0.62 s
-#: (21 iterations) for ω = 2/3 and two sweeps.
-JACOBI_WEIGHT = 0.8
+#: Damped Jacobi, one sweep before and after (ω < 1 keeps the V-cycle positive definite).
+#: Measured on the explosion's 128³ solves (issue 28; interleaved medians, the same
+#: right-hand side): with the Galerkin ratio 4 and ω = 0.8, 26–28 iterations, 510 ms; with
+#: ``COARSE_RATIO`` 3, ω = 0.8 21 iterations, ω = 0.9 19 (362 ms), ω = 0.95 18–19; two sweeps
+#: (ratio 2.5, ω = 0.8) 12–13 iterations but 366 ms (each sweep a stencil product).
+JACOBI_WEIGHT = 0.9
 SMOOTHING_SWEEPS = 1
+#: Each coarser level's operator is this times the unit Laplacian of its own cells, relative to
+#: the level above: 4 would be the Galerkin product PᵀAP, 2 the smooth modes' exact ratio with
+#: R = sum of 8 and P = injection. Iterations at 64³ / 128³ (ω = 0.8): ratio 4: 19–20 / 26–28,
+#: 3: 16–17 / 21, 2.5: 16–17 / 21, 2: 20 / –, 1.8: 22–23 / –.
+COARSE_RATIO = 3.0
 COARSEST_SWEEPS = 24
 
 
@@ -42,7 +52,7 @@ DIAGONAL_SHIFT = 8
 @dataclass
 class Level:
     """One grid of the hierarchy: its per-cell ``code`` (see DIAGONAL_SHIFT) and ``scale``, the
-    factor of its operator (4 per level below the finest, the Galerkin product's)."""
+    factor of its operator (``COARSE_RATIO`` per level below the finest)."""
 
     layout: Layout
     code: Any  # an int array of the backend
@@ -109,7 +119,7 @@ def hierarchy(ops, shape, fluid: np.ndarray, open_sides: tuple, coarsest: int = 
                 axis=(1, 3, 5)
             )
         )
-        scale *= 4.0
+        scale *= COARSE_RATIO
         levels.append(operator(ops, cells(coarse_shape), coarse_fluid, open_sides, scale))
         shape, fluid = coarse_shape, coarse_fluid
     ops.evaluate(*(level.code for level in levels))
