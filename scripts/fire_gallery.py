@@ -1,10 +1,12 @@
 """Render the fire presets side by side: ``docs/fire-presets.png``.
 
-    python scripts/fire_gallery.py [--resolution 48] [--frames 24]
+    python scripts/fire_gallery.py [--resolution 48] [--frames 24] [--pool-seconds 4]
 
 Each preset (candle, torch, campfire, explosion) and three methane pool fires (D = 0.2, 0.5 and
-1 m at 20, 100 and 400 kW) is simulated on the cpu backend (seed 0) into a temporary folder (the
-explosion for half the frames: by 1 s its fireball leaves the top of its domain) and its last
+1 m at 20, 100 and 400 kW; diffusion flames, ``pool_fire``'s default) is simulated on the cpu
+backend (seed 0) into a temporary folder (the explosion for half the frames: by 1 s its
+fireball leaves the top of its domain; the pools for ``--pool-seconds``: their fuel takes
+seconds to fill the pool's cells, ``benchmarks/fire_validation.py``'s fill time) and its last
 frame rendered with the blackbody of T and soot and the CH/C₂ lines of the reaction zone,
 auto-exposed per panel (the presets differ in brightness by orders of magnitude), then the
 panels are written side by side.
@@ -56,9 +58,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--resolution", type=int, default=48)
     parser.add_argument("--frames", type=int, default=24)
+    parser.add_argument("--pool-seconds", type=float, default=4.0)
     a = parser.parse_args()
     names = [*PRESETS, *POOLS]
     frames = {name: a.frames // 2 if name == "explosion" else a.frames for name in names}
+    for name in POOLS:
+        frames[name] = round(a.pool_seconds * settings_of(name).fps)
     panels = [panel(name, a.resolution, frames[name], (192, 288)) for name in names]
     Image.fromarray(np.concatenate(panels, axis=1)).save(OUT)
     print(f"wrote {OUT}")

@@ -153,28 +153,64 @@ def advect(
     the forward trace inside the domain: where it leaves (gas flowing out of an open side), the
     semi-Lagrangian value stays — else the clamped return sample holds the outflow back — and so
     it does where ambient air flows in."""
-    points = positions(ops, q.layout) if points is None else points
+    (out,) = advect_together(ops, [q], velocity, dt, maccormack=maccormack, open_sides=open_sides,
+                             points=points, carried_by=carried_by, ambients=[ambient],
+                             ambient_sides=ambient_sides)  # fmt: skip
+    return out
+
+
+def advect_together(
+    ops: Ops,
+    fields: Sequence[Field],
+    velocity: StaggeredField,
+    dt: Array | float,
+    *,
+    maccormack: bool = True,
+    open_sides: Sequence[bool] = (False,) * 6,
+    points: Sequence[Array] | None = None,
+    carried_by: Sequence[Array] | None = None,
+    ambients: Sequence[float | None] | None = None,
+    ambient_sides: Sequence[bool] | None = None,
+) -> list[Field]:
+    """:func:`advect` of several fields on one layout along the same paths (each with its own
+    ambient value): the velocity at the points is sampled once and the fields' trilinear
+    samples share one kernel's indices and weights."""
+    layout = fields[0].layout
+    ambients = [None] * len(fields) if ambients is None else list(ambients)
+    points = positions(ops, layout) if points is None else points
     at = points if carried_by is None else carried_by
     v = [sample(ops, c.values, c.layout, at) for c in velocity]
     ops.evaluate(*v)  # stored: else each kernel reading it gathers it again (24 gathers)
     back = [points[a] - v[a] * dt for a in range(3)]
     sides = open_sides if ambient_sides is None else ambient_sides
-    entering = None if ambient is None else outside(back, velocity.shape, sides)  # air in
+    air_in = outside(back, velocity.shape, sides)
+    entering = [None if a is None else air_in for a in ambients]
     if not maccormack:
-        return q.like(_where(ops, entering, ambient, sample(ops, q.values, q.layout, back)))
-    forward, low, high = sample(ops, q.values, q.layout, back, with_range=True)
-    forward = _where(ops, entering, ambient, forward)
-    ops.evaluate(forward, low, high)  # one kernel shares their 8 gathers
+        return [q.like(_where(ops, e, a, sample(ops, q.values, layout, back)))
+                for q, e, a in zip(fields, entering, ambients, strict=True)]  # fmt: skip
+    traced = []
+    for q, e, a in zip(fields, entering, ambients, strict=True):
+        forward, low, high = sample(ops, q.values, layout, back, with_range=True)
+        traced.append((_where(ops, e, a, forward), low, high))
+    ops.evaluate(*(x for t in traced for x in t))  # one kernel shares their gathers' indices
     ahead = [points[a] + v[a] * dt for a in range(3)]
+    leaving = outside(ahead, velocity.shape, open_sides)
+    triples = zip(fields, traced, entering, strict=True)
+    out = [_corrected(ops, q, t, ahead, leaving, e) for q, t, e in triples]
+    ops.evaluate(*out)  # now: the stored intermediates are freed
+    return [q.like(c) for q, c in zip(fields, out, strict=True)]
+
+
+def _corrected(ops: Ops, q: Field, traced, ahead, leaving, entering):
+    """MacCormack's value from the forward trace (value, low, high): kept semi-Lagrangian where
+    the trace forward leaves through an open side or ambient air came in."""
+    forward, low, high = traced
     returned = sample(ops, forward, q.layout, ahead)
     corrected = ops.clip(forward + 0.5 * (q.values - returned), low, high)
-    leaving = outside(ahead, velocity.shape, open_sides)
-    if leaving is not None:
-        if entering is not None:  # the ambient value is exact there: no correction
-            leaving = leaving | entering
-        corrected = ops.select(leaving, forward, corrected)
-    ops.evaluate(corrected)  # now: the stored intermediates are freed field by field
-    return q.like(corrected)
+    if leaving is None:
+        return corrected
+    keep = leaving if entering is None else leaving | entering
+    return ops.select(keep, forward, corrected)
 
 
 def outside(p: Sequence[Array], shape: Sequence[int], open_sides: Sequence[bool]) -> Array | None:

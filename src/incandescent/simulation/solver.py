@@ -44,6 +44,7 @@ from incandescent.simulation.fields import Field, StaggeredField
 from incandescent.simulation.grid import Layout, cells, faces, positions, sample
 from incandescent.simulation.operators import (
     advect,
+    advect_together,
     cell_value_at_faces,
     central,
     divergence,
@@ -285,6 +286,14 @@ class FireSolver:
             ambient=ambient,
         ).values
 
+    def _advect_cells(self, qs: Sequence[Field], u: StaggeredField, dt, ambients) -> list:
+        """Cell fields carried together from the centres (``operators.advect_together``: one
+        velocity sample, shared indices), each with its inflowing air's value; backend arrays."""
+        out = advect_together(self.ops, qs, u, dt, maccormack=self.settings.maccormack,
+                              open_sides=self.open_sides, points=self.centres,
+                              ambients=ambients)  # fmt: skip
+        return [q.values for q in out]
+
     # --- one step --------------------------------------------------------------------------
     def step(self, state: FireState, dt: float) -> tuple[FireState, StepReport]:
         if self.settings.combustion == "mixing":
@@ -292,9 +301,8 @@ class FireSolver:
         ops, s = self.ops, self.settings
         u, step = state.velocity, ops.scalar(dt)  # Δt a kernel input
         velocity = [self._advect_velocity(u, a, step) for a in range(3)]
-        temperature, soot = (
-            self._advect(q, self.centres, u, step, ambient=air)
-            for q, air in ((state.temperature, s.t_air_K), (state.soot, 0.0))
+        temperature, soot = self._advect_cells(
+            (state.temperature, state.soot), u, step, (s.t_air_K, 0.0)
         )
         fuel_side = self._fuel_side(state.phi)
         phi = self._advect(
@@ -326,9 +334,7 @@ class FireSolver:
         ops = self.ops
         u, step = state.velocity, ops.scalar(dt)
         velocity = [self._advect_velocity(u, a, step) for a in range(3)]
-        mixture, soot = (
-            self._advect(q, self.centres, u, step, ambient=0.0) for q in (state.mixture, state.soot)
-        )
+        mixture, soot = self._advect_cells((state.mixture, state.soot), u, step, (0.0, 0.0))
         mixture, soot = self._mix(u, mixture, soot, step)
         ops.evaluate(*velocity, mixture, soot)
         mixture, velocity = self._feed(mixture, velocity, state, step)
