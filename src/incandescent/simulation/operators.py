@@ -142,6 +142,7 @@ def advect(
     carried_by: Sequence[Array] | None = None,
     ambient: float | None = None,
     ambient_sides: Sequence[bool] | None = None,
+    exact: int | None = None,
 ) -> Field:
     """``q`` carried by ``velocity`` (cells/s) over ``dt`` (s): semi-Lagrangian (Stam 1999:
     q(x − u(x)Δt), trilinear), MacCormack-corrected if ``maccormack`` (Selle et al. 2008: the
@@ -152,10 +153,11 @@ def advect(
     or only those of ``ambient_sides``; default: the edge value extended). The correction needs
     the forward trace inside the domain: where it leaves (gas flowing out of an open side), the
     semi-Lagrangian value stays — else the clamped return sample holds the outflow back — and so
-    it does where ambient air flows in."""
+    it does where ambient air flows in. ``exact``: the velocity component whose samples are the
+    points themselves (a face component advecting itself): read there, not interpolated."""
     (out,) = advect_together(ops, [q], velocity, dt, maccormack=maccormack, open_sides=open_sides,
                              points=points, carried_by=carried_by, ambients=[ambient],
-                             ambient_sides=ambient_sides)  # fmt: skip
+                             ambient_sides=ambient_sides, exact=exact)  # fmt: skip
     return out
 
 
@@ -171,6 +173,7 @@ def advect_together(
     carried_by: Sequence[Array] | None = None,
     ambients: Sequence[float | None] | None = None,
     ambient_sides: Sequence[bool] | None = None,
+    exact: int | None = None,
 ) -> list[Field]:
     """:func:`advect` of several fields on one layout along the same paths (each with its own
     ambient value): the velocity at the points is sampled once and the fields' trilinear
@@ -179,7 +182,8 @@ def advect_together(
     ambients = [None] * len(fields) if ambients is None else list(ambients)
     points = positions(ops, layout) if points is None else points
     at = points if carried_by is None else carried_by
-    v = [sample(ops, c.values, c.layout, at) for c in velocity]
+    v = [c.values if a == exact and carried_by is None else sample(ops, c.values, c.layout, at)
+         for a, c in enumerate(velocity)]  # fmt: skip
     ops.evaluate(*v)  # stored: else each kernel reading it gathers it again (24 gathers)
     back = [points[a] - v[a] * dt for a in range(3)]
     sides = open_sides if ambient_sides is None else ambient_sides

@@ -425,6 +425,7 @@ class FireSolver:
             points=self.face_points[axis],
             ambient=self.wind if axis == 0 else 0.0,
             ambient_sides=tangential,
+            exact=axis,
         ).values
 
     def _mix(self, u: StaggeredField, temperature, soot, step):
