@@ -120,14 +120,17 @@ def vorticity_confinement(
     N = ∇|ω| / |∇|ω|| points towards the vortex cores and f spins them up."""
     omega = [w.values for w in vorticity(ops, velocity)]
     magnitude = Field(ops.sqrt(omega[0] ** 2 + omega[1] ** 2 + omega[2] ** 2), velocity.cells)
+    ops.evaluate(*omega, magnitude.values)  # one kernel; else each reader gathers ω again
     grad = [central(ops, magnitude, a).values for a in range(3)]
     length = ops.sqrt(grad[0] ** 2 + grad[1] ** 2 + grad[2] ** 2) + 1e-12
     n = [g / length for g in grad]
-    return (
-        magnitude.like(epsilon * (n[1] * omega[2] - n[2] * omega[1])),
-        magnitude.like(epsilon * (n[2] * omega[0] - n[0] * omega[2])),
-        magnitude.like(epsilon * (n[0] * omega[1] - n[1] * omega[0])),
+    force = (
+        epsilon * (n[1] * omega[2] - n[2] * omega[1]),
+        epsilon * (n[2] * omega[0] - n[0] * omega[2]),
+        epsilon * (n[0] * omega[1] - n[1] * omega[0]),
     )
+    ops.evaluate(*force)  # the three share ∇|ω|'s gathers
+    return magnitude.like(force[0]), magnitude.like(force[1]), magnitude.like(force[2])
 
 
 def advect(
