@@ -36,6 +36,7 @@ from incandescent.simulation import FireSolver
 from incandescent.simulation.diagnostics import HOT_K
 from incandescent.simulation.pool import (
     centreline_K,
+    characteristic_diameter_m,
     dominant_hz,
     heskestad_height_m,
     intermittency_height_m,
@@ -150,9 +151,9 @@ def measure(
 def table(results: list[dict]) -> str:
     """The results as a Markdown table, each figure beside its correlation."""
     rows = [
-        "| D (m) | Q (kW) | cells | puffing Hz (vol / tip) | Cetegen–Ahmed Hz | flame height m "
-        "| Heskestad m | plume slope | McCaffrey | wall s (backend) |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| D (m) | Q (kW) | cells | D*/δx | puffing Hz (vol / tip) | Cetegen–Ahmed Hz "
+        "| flame height m | Heskestad m | plume slope | McCaffrey | wall s (backend) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in results:
         slope = "—" if r["plume_slope"] is None else f"{r['plume_slope']:.2f}"
@@ -161,12 +162,19 @@ def table(results: list[dict]) -> str:
             height = f"≥ {height} (the top)"
         rows.append(
             f"| {r['D_m']:g} | {r['Q_kW']:g} | {r['resolution']} ({r['cells_across_D']:.0f} "
-            f"across D) | {r['puffing_volume_hz']:.2f} / {r['puffing_tip_hz']:.2f} | "
+            f"across D) | {_resolved(r):.1f} | {r['puffing_volume_hz']:.2f} / "
+            f"{r['puffing_tip_hz']:.2f} | "
             f"{r['puffing_expected_hz']:.2f} | {height} | "
             f"{r['height_expected_m']:.2f} | {slope} | −1.67 | {r['wall_s']:.0f} "
             f"({r.get('backend', 'cpu')}) |"
         )
     return "\n".join(rows) + "\n"
+
+
+def _resolved(result: dict) -> float:
+    """D*/δx: the fire's characteristic diameter in cells (``pool.characteristic_diameter_m``)."""
+    cell_m = result["D_m"] / result["cells_across_D"]
+    return characteristic_diameter_m(result["Q_kW"]) / cell_m
 
 
 def plot(results: list[dict], path: Path) -> None:

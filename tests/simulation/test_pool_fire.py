@@ -10,6 +10,7 @@ import pytest
 
 from incandescent.simulation.pool import (
     FUELS,
+    characteristic_diameter_m,
     dominant_hz,
     heskestad_height_m,
     inflow_m_s,
@@ -85,6 +86,13 @@ def test_the_correlations_give_their_published_values():
     assert float(plume) == pytest.approx(300 / 19.62 * (1.1 / 0.9) ** 2 * 0.3 ** (-5 / 3), 1e-9)
     flame = mccaffrey_excess_K(np.array([0.02, 0.05]) * q**0.4, q)
     np.testing.assert_allclose(flame, 300 / 19.62 * (6.8 / 0.9) ** 2, rtol=1e-9)
+
+
+def test_the_characteristic_fire_diameter_is_baum_and_mccaffreys():
+    """D* = (Q/(ρ c_p T √g))^(2/5): ρ c_p T √g of air at 293 K is 1.204·1.005·293·3.132 = 1110
+    kW/m^(5/2), so a 1110 kW fire has D* = 1 m and one of 1110·2^(5/2) kW has D* = 2 m."""
+    assert characteristic_diameter_m(1110.0) == pytest.approx(1.0, rel=2e-3)
+    assert characteristic_diameter_m(1110.0 * 2**2.5) == pytest.approx(2.0, rel=2e-3)
 
 
 def test_the_dominant_frequency_of_a_noisy_puff_is_found():

@@ -26,6 +26,7 @@ import numpy as np
 
 from incandescent.simulation.settings import (
     M_AIR_KG_MOL,
+    STANDARD_GRAVITY_M_S2,
     FireSettings,
     Source,
     air_density_kg_m3,
@@ -173,6 +174,19 @@ def heskestad_height_m(heat_release_kW: float, diameter_m: float) -> float:
     """L = 0.235 Q^(2/5) − 1.02 D (m; Q in kW): the mean height of the luminous flame, where it
     is present half the time (Heskestad 1983, Fire Saf. J. 5:103; SFPE Handbook ch. 13)."""
     return 0.235 * heat_release_kW**0.4 - 1.02 * diameter_m
+
+
+#: The specific heat of air at constant pressure near 300 K, kJ/(kg·K) (1.005: Incropera's table).
+AIR_CP_KJ_KG_K = 1.005
+
+
+def characteristic_diameter_m(heat_release_kW: float, t_air_K: float = 293.0) -> float:
+    """D* = (Q / (ρ_∞ c_p T_∞ √g))^(2/5) (m; Q in kW, air at 1 atm): the length scale of a
+    buoyant fire (Baum & McCaffrey 1989); D*/δx is how finely a grid of cell δx resolves it (the
+    resolution index of FDS's validation, McGrattan et al., FDS User's Guide)."""
+    rho = air_density_kg_m3(t_air_K)
+    scale = rho * AIR_CP_KJ_KG_K * t_air_K * math.sqrt(STANDARD_GRAVITY_M_S2)
+    return (heat_release_kW / scale) ** 0.4
 
 
 def mccaffrey_excess_K(height_m: np.ndarray, heat_release_kW: float, t_air_K: float = 300.0):
