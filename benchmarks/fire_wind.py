@@ -1,6 +1,7 @@
 """A pool fire in a wind: the flame's tilt against the AGA correlation (issue 28's optional wind).
 
-``pool_fire(D, Q, combustion="front")`` (methane, the premixed equivalent) with ``wind_m_s``
+``pool_fire(D, Q, combustion=…)`` (methane; ``--combustion front``, the premixed equivalent,
+by default, or ``mixing``, the diffusion flame) with ``wind_m_s``
 u_w along +x, each wind of ``--winds`` run for ``--seconds`` at 24 samples per second on
 ``--backend``; the first ``--warmup`` seconds dropped.
 Measured over the rest: the tilt from the vertical of the luminous gas (T > 1000 K) below
@@ -9,7 +10,7 @@ the plume above the flame does not count), against the American Gas Association'
 (``pool.wind_tilt_deg``). Writes OUT.json and OUT.md.
 
 Usage: ``python benchmarks/fire_wind.py OUT [--resolution 64] [--winds 0,0.5,1,2,4]
-[--seconds 6] [--warmup 2] [--pool 0.5:50] [--backend cpu]``.
+[--seconds 6] [--warmup 2] [--pool 0.5:50] [--backend cpu] [--combustion front]``.
 """
 
 from __future__ import annotations
@@ -45,7 +46,8 @@ def tilt_deg(solver: FireSolver, state, below_m: float) -> float | None:
 
 
 def measure(d: float, q: float, wind: float, args: argparse.Namespace) -> dict:
-    settings = pool_fire(d, q, changes={"fps": RATE_HZ, "wind_m_s": wind}, combustion="front")
+    changes = {"fps": RATE_HZ, "wind_m_s": wind}
+    settings = pool_fire(d, q, changes=changes, combustion=args.combustion)
     solver = FireSolver(settings, args.resolution, args.backend)
     below = args.flame_heights * max(heskestad_height_m(q, d), d)
     state, tilts, began = solver.initial_state(), [], time.perf_counter()
@@ -56,7 +58,7 @@ def measure(d: float, q: float, wind: float, args: argparse.Namespace) -> dict:
     seen = [t for t in tilts if t is not None]
     return {
         "D_m": d, "Q_kW": q, "wind_m_s": wind, "resolution": args.resolution,
-        "shape": list(solver.shape), "backend": args.backend,
+        "shape": list(solver.shape), "backend": args.backend, "combustion": args.combustion,
         "tilt_deg": float(np.mean(seen)) if seen else None,
         "tilt_sd_deg": float(np.std(seen)) if seen else None,
         "aga_deg": wind_tilt_deg(wind, d, q, FUELS["methane"]),
@@ -86,6 +88,12 @@ def main() -> None:
     parser.add_argument("--pool", default="0.5:50", help="D:Q, m and kW")
     parser.add_argument("--flame-heights", type=float, default=1.0)
     parser.add_argument("--backend", default="cpu")
+    parser.add_argument(
+        "--combustion",
+        default="front",
+        choices=("front", "mixing"),
+        help="pool_fire's model (mixing: warm up past the pool's fill time)",
+    )
     args = parser.parse_args()
     d, q = (float(v) for v in args.pool.split(":"))
     rows = []
