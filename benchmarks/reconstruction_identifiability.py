@@ -50,7 +50,8 @@ def views(volume, cameras, settings, emission) -> list:
 
 
 def data_term(truth, temperature_K, cameras, settings, emission, reference) -> float:
-    """Σ|views(T) − reference|² / Σ|reference|² over the views."""
+    """Σ|views(T) − reference|² / Σ|reference|² over the views: the measure of
+    ``inverse.reconstruct.data_term``, which renders through the CIE observer only."""
     volume = truth.replace(temperature_K=temperature_K.astype(np.float32))
     got = views(volume, cameras, settings, emission)
     num = sum(float(np.sum((g - r) ** 2)) for g, r in zip(got, reference, strict=True))
