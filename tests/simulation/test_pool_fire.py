@@ -120,3 +120,23 @@ def test_the_half_intermittency_height_of_a_flickering_tip():
 def test_the_slope_of_a_power_law():
     z = np.linspace(0.5, 3.0, 20)
     assert power_law_slope(z, 170.0 * z ** (-5 / 3)) == pytest.approx(-5 / 3, abs=1e-9)
+
+
+@pytest.mark.parametrize("resolution", [24, 64, 128])
+def test_the_pool_is_the_bottom_layer_of_cells_at_every_resolution(resolution):
+    """The pool's fuel enters through the floor's cells: its nozzle is the bottom layer, one
+    cell thick, at any resolution — no air under it (centred 0.02 of the domain up it was the
+    bottom two layers at 64 cells but layers 2–3 at 128, and the 1 m, 200 kW pool's flame
+    there burnt lean and short). Asserted: the source's cells are exactly layer 0's cells
+    within D/2 of the axis."""
+    from incandescent.simulation.solver import FireSolver
+
+    solver = FireSolver(pool_fire(1.0, 200.0), resolution)
+    inside = solver.ops.numpy(solver.sources[0]).reshape(solver.shape) < 0.0
+    layers = np.nonzero(inside.any(axis=(0, 2)))[0]
+    assert layers.tolist() == [0]
+    nx, _, nz = solver.shape
+    x = (np.arange(nx) + 0.5 - nx / 2) * solver.h  # the grid's centre (its sides are whole
+    z = (np.arange(nz) + 0.5 - nz / 2) * solver.h  # multigrid-friendly cells, ≈ the domain)
+    disc = np.hypot(x[:, None], z[None, :]) < 0.5
+    assert np.array_equal(inside[:, 0, :], disc)
