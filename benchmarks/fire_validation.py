@@ -11,6 +11,10 @@ the time its feed takes to fill the pool's cells if longer (``FILL_TIMES``) — 
 - the puffing frequency: the dominant frequency above 0.5 Hz of the luminous volume (gas above
   1000 K, the diagnostics' flame), and of the luminous region's tip height;
 - the mean flame height: where a layer holds luminous gas half the time (50 % intermittency);
+  for a diffusion flame also where a layer holds gas at or above the stoichiometric mixture
+  fraction half the time (``height_sheet_m``): fast chemistry burns the fuel at the sheet
+  Z = Z_st, so that is where its flame ends, while gas above 1000 K reaches on into the lean
+  plume (with χ_r = 0.35 down to Z ≈ 0.56 Z_st);
 - the centreline: the time-mean temperature of the 2×2 central columns; its log–log slope above
   the flame, in McCaffrey's plume region (z/Q^(2/5) > 0.2 m/kW^(2/5)) below the top 15 % of the
   domain (its open outflow), against McCaffrey's −5/3.
@@ -64,7 +68,7 @@ def sample_run(
     settings = pool_fire(diameter_m, heat_kW, changes={"fps": RATE_HZ}, combustion=combustion)
     solver = FireSolver(settings, resolution, backend)
     state, h = solver.initial_state(), solver.h
-    volume, tip, present, centre = [], [], [], []
+    volume, tip, present, centre, sheet = [], [], [], [], []
     began = time.perf_counter()
     for _ in range(round(seconds * RATE_HZ)):
         state, _ = advance_frame(solver, state)
@@ -75,6 +79,9 @@ def sample_run(
         tip.append((np.nonzero(layers)[0].max() + 1) * h if layers.any() else 0.0)
         present.append(layers)
         centre.append(centreline_K(t))
+        if settings.combustion == "mixing":
+            z = solver.ops.numpy(state.mixture.values).reshape(solver.shape)
+            sheet.append((z >= settings.stoichiometric_mixture).any(axis=(0, 2)))
     return {
         "h": h,
         "shape": solver.shape,
@@ -83,6 +90,7 @@ def sample_run(
         "tip": np.array(tip),
         "present": np.array(present),
         "centre": np.array(centre),
+        "sheet": np.array(sheet),
     }
 
 
@@ -137,6 +145,9 @@ def measure(
         "puffing_tip_hz": dominant_hz(run["tip"][keep], RATE_HZ),
         "height_expected_m": heskestad_height_m(heat_kW, diameter_m),
         "height_m": intermittency_height_m(run["present"][keep], h),
+        "height_sheet_m": (
+            intermittency_height_m(run["sheet"][keep], h) if len(run["sheet"]) else None
+        ),
         "domain_height_m": ny * h,
         "plume_slope": power_law_slope(z[plume], excess[plume]) if plume.sum() >= 3 else None,
         "plume_points": int(plume.sum()),
@@ -145,6 +156,7 @@ def measure(
         "mccaffrey_excess_K": mccaffrey_excess_K(z, heat_kW).tolist(),
         "volume_m3": run["volume"][keep].tolist(),
         "presence": run["present"][keep].mean(axis=0).tolist(),
+        "sheet_presence": run["sheet"][keep].mean(axis=0).tolist() if len(run["sheet"]) else None,
     }
 
 
@@ -152,7 +164,8 @@ def table(results: list[dict]) -> str:
     """The results as a Markdown table, each figure beside its correlation."""
     rows = [
         "| D (m) | Q (kW) | cells | D*/δx | puffing Hz (vol / tip) | Cetegen–Ahmed Hz "
-        "| flame height m | Heskestad m | plume slope | McCaffrey | wall s (backend) |",
+        "| flame height m, T > 1000 K / Z ≥ Z_st | Heskestad m | plume slope | McCaffrey "
+        "| wall s (backend) |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in results:
@@ -160,6 +173,8 @@ def table(results: list[dict]) -> str:
         height = f"{r['height_m']:.2f}"
         if r["height_m"] >= r["domain_height_m"] - 1e-9:
             height = f"≥ {height} (the top)"
+        sheet = r.get("height_sheet_m")
+        height += " / —" if sheet is None else f" / {sheet:.2f}"
         rows.append(
             f"| {r['D_m']:g} | {r['Q_kW']:g} | {r['resolution']} ({r['cells_across_D']:.0f} "
             f"across D) | {_resolved(r):.1f} | {r['puffing_volume_hz']:.2f} / "

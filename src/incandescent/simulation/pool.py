@@ -245,9 +245,9 @@ def dominant_hz(signal: np.ndarray, rate_hz: float, lowest_hz: float = 0.5) -> f
 def intermittency_height_m(present: np.ndarray, cell_m: float) -> float:
     """The height (m) where flame is present half the time: ``present`` (samples, heights) says
     whether each horizontal layer holds flame; its fraction over the samples, falling with
-    height above the layer that holds flame most often (the pool's: on a fine grid the layers
-    under the pool's disc, which sits 0.02 of the domain up, hold air), crosses ½ there (linear
-    between layer centres). 0 if no layer holds flame half the time."""
+    height above the layer that holds flame most often (the pool's, or just above it), crosses ½
+    there (linear between layer centres; heights from the floor). 0 if no layer holds flame
+    half the time."""
     fraction = np.asarray(present, dtype=float).mean(axis=0)
     if fraction.size == 0 or fraction.max() < 0.5:
         return 0.0
