@@ -193,7 +193,8 @@ def _resolved(result: dict) -> float:
 
 
 def plot(results: list[dict], path: Path) -> None:
-    """Centreline excess temperature against McCaffrey's, one panel per pool."""
+    """Centreline excess temperature against McCaffrey's, one panel per pool; vertical lines:
+    Heskestad's flame height (grey), ours by 1000 K (blue, dotted) and by Z ≥ Z_st (green)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -205,6 +206,9 @@ def plot(results: list[dict], path: Path) -> None:
         ax.loglog(z, np.maximum(r["centreline_excess_K"], 1.0), label="simulated")
         ax.loglog(z, r["mccaffrey_excess_K"], "--", label="McCaffrey 1979")
         ax.axvline(r["height_expected_m"], color="grey", lw=0.8)
+        ax.axvline(r["height_m"], color="C0", lw=0.8, ls=":")
+        if r.get("height_sheet_m"):
+            ax.axvline(r["height_sheet_m"], color="C2", lw=0.8, ls=":")
         ax.set_title(f"D {r['D_m']:g} m, Q {r['Q_kW']:g} kW ({r['resolution']})", fontsize=8)
         ax.set_xlabel("z (m)")
     axes[0][0].set_ylabel("centreline ΔT (K)")
