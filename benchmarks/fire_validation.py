@@ -14,7 +14,7 @@ the time its feed takes to fill the pool's cells if longer (``FILL_TIMES``) — 
   for a diffusion flame also where a layer holds gas at or above the stoichiometric mixture
   fraction half the time (``height_sheet_m``): fast chemistry burns the fuel at the sheet
   Z = Z_st, so that is where its flame ends, while gas above 1000 K reaches on into the lean
-  plume (with χ_r = 0.35 down to Z ≈ 0.56 Z_st);
+  plume (methane with χ_r = 0.2: down to Z ≈ 0.45 Z_st);
 - the centreline: the time-mean temperature of the 2×2 central columns; its log–log slope above
   the flame, in McCaffrey's plume region (z/Q^(2/5) > 0.2 m/kW^(2/5)) below the top 15 % of the
   domain (its open outflow), against McCaffrey's −5/3.
