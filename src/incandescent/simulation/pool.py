@@ -159,7 +159,7 @@ def _diffusion_flame(diameter_m, heat_release_kW, f: Fuel, t_air: float) -> dict
 
 #: The pool's centre, in domain fractions: on the floor. A nozzle is the cells within a cell of
 #: its centre's height (``FireSolver._source_distance``), so centred on the floor plane the pool
-#: is the bottom layer of cells at every resolution. (Until issue 28's last stop it was centred
+#: is the bottom layer of cells at every resolution. (Until issue 28's 44th stop it was centred
 #: 0.02 of the domain up: the bottom two layers at 64 cells, but layers 2–3 at 128, with two
 #: cells of air under the pool — which starved the 1 m, 200 kW pool's flame at 128 cells.)
 POOL_CENTRE = (0.5, 0.0, 0.5)
