@@ -206,9 +206,9 @@ def plot(results: list[dict], path: Path) -> None:
         ax.loglog(z, np.maximum(r["centreline_excess_K"], 1.0), label="simulated")
         ax.loglog(z, r["mccaffrey_excess_K"], "--", label="McCaffrey 1979")
         ax.axvline(r["height_expected_m"], color="grey", lw=0.8)
-        ax.axvline(r["height_m"], color="C0", lw=0.8, ls=":")
-        if r.get("height_sheet_m"):
-            ax.axvline(r["height_sheet_m"], color="C2", lw=0.8, ls=":")
+        for key, colour in (("height_m", "C0"), ("height_sheet_m", "C2")):
+            if r.get(key):  # None (no sheet) or 0 (no flame half the time): no line on a log axis
+                ax.axvline(r[key], color=colour, lw=0.8, ls=":")
         ax.set_title(f"D {r['D_m']:g} m, Q {r['Q_kW']:g} kW ({r['resolution']})", fontsize=8)
         ax.set_xlabel("z (m)")
     axes[0][0].set_ylabel("centreline ΔT (K)")

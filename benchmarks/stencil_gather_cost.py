@@ -74,8 +74,8 @@ def packet_apply(level: pressure.Level, x):
     lower, upper = [below, *xc[: PACKET - 1]], [*xc[1:], above]
     out = []
     for k in range(PACKET):
-        near = dr.select((code[k] & 16) != 0, lower[k], 0.0)
-        near = near + dr.select((code[k] & 32) != 0, upper[k], 0.0)
+        near = dr.select((code[k] & (1 << 4)) != 0, lower[k], 0.0)  # z−, bit 2·axis + side
+        near = near + dr.select((code[k] & (1 << 5)) != 0, upper[k], 0.0)  # z+
         out.append(Float(code[k] >> pressure.DIAGONAL_SHIFT) * xc[k] - (total[k] + near))
     result = dr.zeros(Float, size)
     dr.scatter(result, ArrayXf(out), UInt32(t))
