@@ -168,6 +168,13 @@ class FireSettings(_Model):
         description="C₂* in the reaction zone: 30× CH*'s, as much radiant power (see DESIGN §7)",
     )
     pressure_tolerance: float = Field(default=1e-4, gt=0, lt=1)
+    pressure_preconditioner: Literal["auto", "multigrid", "exact"] = Field(
+        default="auto",
+        description="the pressure solve's preconditioner: 'multigrid', one V-cycle (any "
+        "obstacles; on the device); 'exact', the obstacle-free box's exact inverse by fast "
+        "diagonalisation on the host (one iteration for a Boussinesq fire); 'auto': exact on the "
+        "cpu and reference backends when there are no obstacles, multigrid otherwise",
+    )
     walls: bool = Field(
         default=False, description="solid side walls (a chimney); default open sides"
     )
