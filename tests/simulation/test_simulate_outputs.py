@@ -305,13 +305,22 @@ def test_a_settings_folder_is_named(tmp_path):
 
 def test_a_run_gone_non_finite_names_the_frame_and_key_and_leaves_no_folder(tmp_path):
     out = tmp_path / "new" / "fire"
-    path = _settings(tmp_path, "vorticity = 1e30")
+    path = _settings(tmp_path, "vorticity = 1e37")
     _error(_simulate(out, "--settings", path, "--frames", 3),
-           "frame 1", "non-finite", "vorticity = 1e+30", "frame 1 was not written")  # fmt: skip
+           "frame 1", "non-finite", "vorticity = 1e+37", "frame 1 was not written")  # fmt: skip
     assert not (tmp_path / "new").exists()  # neither the folder nor the parent it made
     out.mkdir(parents=True)  # a folder the user made stays, as it was: empty
     _error(_simulate(out, "--settings", path, "--frames", 3), "frame 1", "vorticity")
     assert out.is_dir() and list(out.iterdir()) == []
+
+
+def test_a_speed_gone_infinite_between_frames_is_reported_as_non_finite(tmp_path):
+    """Confinement 10²⁸ × the presets': frame 1 ends with max |u| ~10²⁸ m/s, finite; the next
+    frame's sub-steps, measured from a speed that overflows float32, stop the run with the
+    one-line non-finite error naming frame 2 (once an OverflowError from the sub-step count)."""
+    path = _settings(tmp_path, "vorticity = 1e30")
+    _error(_simulate(tmp_path / "fire", "--settings", path, "--frames", 3),
+           "frame 2", "non-finite", "vorticity = 1e+30", "frame 2 was not written")  # fmt: skip
 
 
 def test_a_run_gone_non_finite_later_keeps_its_frames_to_resume(tmp_path, monkeypatch):

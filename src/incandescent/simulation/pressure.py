@@ -28,11 +28,14 @@ cores where a V-cycle preconditioned solve takes ~360 ms (issue 28, ``benchmarks
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
 from incandescent.simulation.grid import Layout, cells, flat_index, indices
 
@@ -139,10 +142,12 @@ def hierarchy(ops, shape, fluid: np.ndarray, open_sides: tuple, coarsest: int = 
 class Direct:
     """A⁻¹ of an obstacle-free box: the orthonormal eigenvectors ``bases`` (Q_x, Q_y, Q_z, columns)
     of each axis's 1-D operator and ``inverse`` = 1/(λ_x + λ_y + λ_z) on the eigenvalue grid (0
-    where the sum is 0: a box closed on every side, whose constant mode is not determined)."""
+    where the sum is 0: a box closed on every side, whose constant mode is not determined);
+    ``workers``: the host threads its matrix products are split over."""
 
     bases: tuple[np.ndarray, np.ndarray, np.ndarray]
     inverse: np.ndarray
+    workers: int = 1
 
 
 def line_operator(n: int, lower_open: bool, upper_open: bool) -> np.ndarray:
@@ -155,9 +160,12 @@ def line_operator(n: int, lower_open: bool, upper_open: bool) -> np.ndarray:
     return t
 
 
-def direct(shape: tuple[int, int, int], open_sides: tuple, dtype=np.float32) -> Direct:
+def direct(
+    shape: tuple[int, int, int], open_sides: tuple, dtype=np.float32, workers: int = 1
+) -> Direct:
     """The exact inverse of A on an obstacle-free ``shape`` with ``open_sides`` (x−, x+, y−, y+,
-    z−, z+), its matrices in ``dtype`` (the backend's float)."""
+    z−, z+), its matrices in ``dtype`` (the backend's float), its products on ``workers``
+    threads."""
     pairs = [np.linalg.eigh(line_operator(n, open_sides[2 * a], open_sides[2 * a + 1]))
              for a, n in enumerate(shape)]  # fmt: skip
     lx, ly, lz = (lam for lam, _ in pairs)
@@ -165,23 +173,62 @@ def direct(shape: tuple[int, int, int], open_sides: tuple, dtype=np.float32) -> 
     safe = np.where(total > 1e-9, total, 1.0)
     inverse = np.where(total > 1e-9, 1.0 / safe, 0.0)
     bases = tuple(np.ascontiguousarray(q, dtype=dtype) for _, q in pairs)
-    return Direct(bases, inverse.astype(dtype))  # type: ignore[arg-type]
+    return Direct(bases, inverse.astype(dtype), max(1, int(workers)))  # type: ignore[arg-type]
 
 
-def _along_axes(x: np.ndarray, qx: np.ndarray, qy: np.ndarray, qz: np.ndarray) -> np.ndarray:
-    """x (nx, ny, nz) multiplied along each axis: Σ qx[i, a] qy[j, b] qz[k, c] x[a, b, c]."""
+@functools.cache
+def _blas() -> ThreadpoolController:
+    return ThreadpoolController()
+
+
+@functools.cache
+def _pool(workers: int) -> ThreadPoolExecutor:
+    return ThreadPoolExecutor(workers, thread_name_prefix="incandescent-pressure")
+
+
+def _split(work: Callable[[slice], None], n: int, workers: int) -> None:
+    """``work`` on ``workers`` contiguous slices of range(n), each on a thread of its own (NumPy
+    releases the GIL in its products); Python's idle threads sleep, unlike OpenBLAS's."""
+    bounds = np.linspace(0, n, min(workers, n) + 1).astype(int)
+    parts = [slice(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    if len(parts) == 1:
+        work(parts[0])
+        return
+    for future in [_pool(workers).submit(work, part) for part in parts]:
+        future.result()
+
+
+def _along_axes(x: np.ndarray, qx: np.ndarray, qy: np.ndarray, qz: np.ndarray, workers: int,
+                weight: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
+    """x (nx, ny, nz) multiplied along each axis, Σ qx[i, a] qy[j, b] qz[k, c] x[a, b, c], then
+    by ``weight`` (nx, ny, nz) if given (while each slab is in cache)."""
     nx, ny, nz = x.shape
-    x = (qx @ x.reshape(nx, ny * nz)).reshape(nx, ny, nz)
-    x = np.matmul(qy, x)  # each x-slab: qy (ny, ny) @ (ny, nz)
-    return x @ qz.T
+    flat, first = x.reshape(nx, ny * nz), np.empty((nx, ny * nz), x.dtype)
+
+    def along_x(cols: slice) -> None:
+        first[:, cols] = qx @ flat[:, cols]
+
+    _split(along_x, ny * nz, workers)
+    slabs, out = first.reshape(nx, ny, nz), np.empty((nx, ny, nz), x.dtype)
+
+    def along_y_z(rows: slice) -> None:
+        out[rows] = np.matmul(qy, slabs[rows]) @ qz.T  # each x-slab: qy (ny, ny) @ (ny, nz)
+        if weight is not None:
+            out[rows] *= weight[rows]
+
+    _split(along_y_z, nx, workers)
+    return out
 
 
 def apply_direct(ops, inverse: Direct, b):
-    """A⁻¹ b on the host (b a backend array over the box's cells, C order)."""
+    """A⁻¹ b on the host (b a backend array over the box's cells, C order), BLAS held to one
+    thread a call and the work split over ``inverse.workers`` threads."""
     qx, qy, qz = inverse.bases
     values = np.asarray(b).reshape(inverse.inverse.shape).astype(qx.dtype, copy=False)
-    spectrum = _along_axes(values, qx.T, qy.T, qz.T) * inverse.inverse
-    return ops.array(_along_axes(spectrum, qx, qy, qz).ravel())
+    with _blas().limit(limits=1, user_api="blas"):
+        spectrum = _along_axes(values, qx.T, qy.T, qz.T, inverse.workers, inverse.inverse)
+        x = _along_axes(spectrum, qx, qy, qz, inverse.workers)
+    return ops.array(x.ravel())
 
 
 def _jacobi(ops, level: Level, x, b, sweeps: int):
@@ -229,6 +276,13 @@ def v_cycle(ops, levels: list[Level], b, depth: int = 0):
     return x
 
 
+def _exactly(ops, level: Level, exact: Direct, b, scale: float):
+    """(x = A⁻¹ b, max|b − A x| / ``scale``): the exact inverse's solution and its residual."""
+    x = apply_direct(ops, exact, b)
+    ops.evaluate(x)
+    return x, ops.max_abs(b - apply(ops, level, x)) / scale
+
+
 def solve(
     ops,
     levels: list[Level],
@@ -240,13 +294,13 @@ def solve(
     scale_cells=None,
     exact: Direct | None = None,
 ):
-    """x with A x = b (PCG, the V-cycle — or ``exact``, the obstacle-free box's A⁻¹ — as
-    preconditioner, from ``guess`` — the last step's
-    pressure — or 0); (x, SolveReport). ``operator``: another symmetric positive definite A of
-    the same grid (x ↦ A x; the variable-density projection's −∇·(β∇)), still preconditioned
-    by the constant-coefficient V-cycle, symmetrically scaled by ``scale_cells`` s (M⁻¹ r =
-    s V(s r); s = √(d/d_β), the ratio of the diagonals, makes the V-cycle see β's scale);
-    None: ``levels[0]``'s."""
+    """x with A x = b; (x, SolveReport). PCG from ``guess`` (the last step's pressure) or 0,
+    preconditioned by the V-cycle or by ``exact``, the obstacle-free box's A⁻¹; for A itself
+    ``exact`` solves at once (one iteration; PCG from there only if float32 rounding left the
+    residual above ``tolerance``). ``operator``: another symmetric positive definite A of the
+    same grid (x ↦ A x; the variable-density projection's −∇·(β∇)), preconditioned by the
+    constant-coefficient inverse symmetrically scaled by ``scale_cells`` s (M⁻¹ r = s V(s r);
+    s = √(d/d_β), the ratio of the diagonals, makes it see β's scale); None: ``levels[0]``'s."""
     level = levels[0]
     product = operator or (lambda x: apply(ops, level, x))
 
@@ -261,6 +315,11 @@ def solve(
     scale = ops.max_abs(b)
     if scale == 0.0:
         return b * 0.0, SolveReport(0, 0.0)
+    if exact is not None and operator is None:  # A⁻¹ b at once; PCG only if rounding left more
+        x, relative = _exactly(ops, level, exact, b, scale)
+        if relative <= tolerance:
+            return x, SolveReport(1, relative)
+        guess = x
     x = b * 0.0 if guess is None else guess
     r = b - product(x)
     if ops.max_abs(r) <= tolerance * scale:

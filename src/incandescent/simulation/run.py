@@ -102,9 +102,12 @@ def advance_frame(solver: FireSolver, state: FireState) -> tuple[FireState, list
 
 def _sub_step(remaining_s: float, speed_cells_s: float, cfl: float, steps_left: int) -> float:
     """Δt (s): ``remaining_s`` split into the fewest equal steps of at most ``cfl`` cells at
-    ``speed_cells_s``; all of it when one step is left under the cap."""
+    ``speed_cells_s``; all of it when one step is left under the cap (and the cap's share of it
+    when the speed is no longer finite: the frame's fields then fail its finiteness check)."""
     if steps_left <= 1:
         return remaining_s
+    if not math.isfinite(speed_cells_s):  # gone non-finite: the cap's steps, then the run's check
+        return remaining_s / steps_left
     needed = math.ceil(remaining_s * speed_cells_s / cfl * (1.0 - 1e-12))
     return remaining_s / max(needed, 1)
 

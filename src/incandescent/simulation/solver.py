@@ -33,6 +33,7 @@ chemistry (``flame_temperature``) and φ the distance to the flame sheet Z = Z_s
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -188,7 +189,15 @@ class FireSolver:
                 )
             return None
         dtype = np.float64 if self.ops.name == "reference" else np.float32
-        return pressure.direct(self.shape, solved_sides, dtype)
+        return pressure.direct(self.shape, solved_sides, dtype, self._host_threads())
+
+    def _host_threads(self) -> int:
+        """The threads host work may use: Dr.Jit's pool's on cpu, the machine's otherwise."""
+        if self.ops.name == "cpu":
+            from incandescent._jit import drjit_module
+
+            return int(drjit_module().thread_count())
+        return os.cpu_count() or 1
 
     # --- geometry --------------------------------------------------------------------------
     def _world(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
