@@ -22,8 +22,9 @@ is exact and cheap by fast diagonalisation (Lynch, Rice & Thomas 1964, Numer. Ma
 T_a = Q_a Λ_a Q_aᵀ, A⁻¹ = (Q_x ⊗ Q_y ⊗ Q_z) (Λ_x ⊕ Λ_y ⊕ Λ_z)⁻¹ (Q_x ⊗ Q_y ⊗ Q_z)ᵀ — six
 matrix products along the axes (BLAS, on the host) and a division. ``Direct`` is that inverse;
 as the preconditioner of the same PCG it solves the constant-coefficient projection in one
-iteration, and preconditions the variable-density one. At 128³ it takes ~25 ms in float32 on 2
-cores where a V-cycle preconditioned solve takes ~360 ms (issue 28, ``benchmarks/fire_cost.py``).
+iteration (and can precondition the variable-density one, where the V-cycle is faster). A 128³
+solve takes ~40 ms in float32 on 2 cores where the V-cycle's takes ~300–360 ms (17–19
+iterations; issue 28, ``benchmarks/fire_vs_mantaflow.py``).
 """
 
 from __future__ import annotations

@@ -172,8 +172,8 @@ class FireSettings(_Model):
         default="auto",
         description="the pressure solve's preconditioner: 'multigrid', one V-cycle (any "
         "obstacles; on the device); 'exact', the obstacle-free box's exact inverse by fast "
-        "diagonalisation on the host (one iteration for a Boussinesq fire); 'auto': exact on the "
-        "cpu and reference backends when there are no obstacles, multigrid otherwise",
+        "diagonalisation on the host (one iteration for a Boussinesq fire); 'auto': exact for a "
+        "Boussinesq fire without obstacles on the cpu and reference backends, multigrid otherwise",
     )
     walls: bool = Field(
         default=False, description="solid side walls (a chimney); default open sides"
