@@ -192,6 +192,31 @@ def test_bench_json_reports_every_case():
     assert "cores" in report["cpu"]  # the CPU the figures belong to
 
 
+def test_bench_fire_times_each_pressure_preconditioner_side_by_side():
+    """`bench --fire 16`: the explosion at 16³ with the exact inverse (auto picks it: one
+    pressure iteration a step) and the V-cycle (several), frames and steps timed."""
+    result = _run("bench", "--json", "--fire", 16, "--repeat", 1)
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    rows = {r["preconditioner"]: r for r in report["fire"] if r["backend"] == "cpu"}
+    assert set(rows) == {"auto: exact", "multigrid"}
+    assert rows["auto: exact"]["pressure_iterations"] == [1]
+    assert min(rows["multigrid"]["pressure_iterations"]) > 1
+    for r in rows.values():
+        assert r["cells"] == 16 and r["s_per_frame"] > 0 and r["ms_per_step"] > 0
+        assert 1 <= min(r["steps_per_frame"]) and max(r["steps_per_frame"]) <= 4
+    assert "cores" in report["cpu"]
+
+
+@pytest.mark.parametrize(
+    ("sizes", "message"), [("abc", "--fire 'abc': expected grid sizes"), ("8", "--fire 8: a grid")]
+)
+def test_bench_fire_refuses_a_size_it_cannot_run(sizes, message):
+    result = _run("bench", "--fire", sizes)
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert message in " ".join(result.output.split())
+
+
 def test_cpu_description_names_model_cores_and_widest_simd():
     from incandescent._parallel import workers
     from incandescent.benchmark import cpu_description

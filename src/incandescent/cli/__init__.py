@@ -665,9 +665,13 @@ def _stopped() -> None:
 @app.command()
 @command(flags.BENCH)
 def bench(o: Given) -> None:
-    """Benchmark the backends on named synthetic scenes (samples/s, ms/frame)."""
+    """Benchmark the backends on named synthetic scenes (samples/s, ms/frame), or the fire
+    solver (--fire)."""
     from incandescent import benchmark
 
+    if o.fire is not None:
+        _bench_fire(o)
+        return
     if o.pixels is not None and o.resolution is not None and o.pixels != o.resolution:
         raise fail("--pixels and its deprecated spelling --resolution disagree; give --pixels")
     pixels = next((v for v in (o.pixels, o.resolution) if v is not None), 512)
@@ -680,6 +684,28 @@ def bench(o: Given) -> None:
         typer.echo(json.dumps(report, indent=2))
     else:
         benchmark.print_table(report, Console())
+
+
+def _bench_fire(o: Given) -> None:
+    """``bench --fire SIZES``: the fire solver's cost (``simulation.cost``)."""
+    from incandescent.renderer.backends import available_backends
+    from incandescent.simulation import cost
+
+    try:
+        sizes = cost.parse_sizes(o.fire)
+        if o.repeat < 1:
+            raise ValueError(f"--repeat {o.repeat}: expected at least 1")
+        backends = [b for b in ("cuda", "cpu") if b in available_backends()]
+        rows = cost.run(sizes, o.repeat, backends, None if o.as_json else say)
+    except (ValueError, RuntimeError) as error:
+        raise fail(str(error)) from None
+    if o.as_json:
+        from incandescent.benchmark import cpu_description
+
+        report = {"incandescent": __version__, "cpu": cpu_description(), "fire": rows}
+        typer.echo(json.dumps(report, indent=2))
+    else:
+        cost.print_table(rows, Console())
 
 
 if __name__ == "__main__":  # pragma: no cover

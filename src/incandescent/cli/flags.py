@@ -643,6 +643,8 @@ BENCH = (
     Flag("reference", bool, "Include the NumPy reference (at 1/4 resolution).", default=True),
     Flag("cold", bool, "Also time frames that each render a new volume (cold).", default=False,
          decls=("--cold",)),
+    Flag("fire", str, "Time the fire solver instead, at these grid sizes (e.g. 64,128): the "
+         "explosion at CFL 4, each pressure preconditioner side by side."),
 )
 RECONSTRUCT = (
     Flag("views", list[Path], "EXR radiance views (absolute linear RGB, as render writes them).",
