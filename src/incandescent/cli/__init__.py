@@ -515,7 +515,7 @@ def _simulation_progress(frames: int) -> Iterator[Callable]:
         steps_s = done["steps"] / max(done["seconds"], 1e-9)
         rate = (
             f"{steps_s:.1f} steps/s, CFL {record['cfl_max']:.2f}, max |u| "
-            + f"{record['max_speed_m_s']:.3g} m/s, pressure {last.pressure_iterations} iterations"
+            + f"{record['max_speed_m_s']:.3g} m/s, pressure {_iterations(last)}"
         )
         bar.update(task, completed=report.frame, rate=rate)
         if record["capped"]:
@@ -524,11 +524,17 @@ def _simulation_progress(frames: int) -> Iterator[Callable]:
         if not console.is_terminal:
             say(f"  frame {report.frame}: {len(report.steps)} steps in {report.seconds:.2f} s, "
                 f"CFL {record['cfl_max']:.2f}, max |u| {record['max_speed_m_s']:.3g} m/s, "
-                f"pressure {last.pressure_iterations} iterations to "
+                f"pressure {_iterations(last)} to "
                 f"{last.pressure_residual:.1e} -> {report.path}")  # fmt: skip
 
     with bar:
         yield on_frame
+
+
+def _iterations(report) -> str:
+    """ "1 iteration" / "12 iterations": the last step's pressure solve."""
+    n = report.pressure_iterations
+    return f"{n} iteration" + ("" if n == 1 else "s")
 
 
 def _capped(record: dict) -> str:
