@@ -150,7 +150,11 @@ class Direct:
     bases: tuple[np.ndarray, np.ndarray, np.ndarray]
     inverse: np.ndarray
     workers: int = 1
-    scratch: tuple[np.ndarray, ...] = field(default_factory=lambda: (np.empty(0),) * 3)
+    scratch: tuple[np.ndarray, ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        grids = tuple(np.empty(self.inverse.shape, self.inverse.dtype) for _ in range(3))
+        object.__setattr__(self, "scratch", grids)
 
 
 def line_operator(n: int, lower_open: bool, upper_open: bool) -> np.ndarray:
@@ -176,8 +180,7 @@ def direct(
     safe = np.where(total > 1e-9, total, 1.0)
     inverse = np.where(total > 1e-9, 1.0 / safe, 0.0)
     bases = tuple(np.ascontiguousarray(q, dtype=dtype) for _, q in pairs)
-    scratch = tuple(np.empty(shape, dtype) for _ in range(3))
-    return Direct(bases, inverse.astype(dtype), max(1, int(workers)), scratch)  # type: ignore[arg-type]
+    return Direct(bases, inverse.astype(dtype), max(1, int(workers)))  # type: ignore[arg-type]
 
 
 @functools.cache
