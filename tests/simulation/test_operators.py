@@ -10,7 +10,7 @@ from _backends import ALL_BACKENDS
 
 from incandescent.simulation.arrays import ops_for
 from incandescent.simulation.fields import Field, StaggeredField
-from incandescent.simulation.grid import cells, faces, positions
+from incandescent.simulation.grid import cells, faces, positions, sample, sample_aligned
 from incandescent.simulation.operators import (
     advect,
     divergence,
@@ -177,3 +177,21 @@ def test_eddy_mixing_spreads_a_spike_as_the_heat_equation():
     assert out[8, 8, 4] == pytest.approx(0.4)
     for di, dj, dk in [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]:
         assert out[8 + di, 8 + dj, 4 + dk] == pytest.approx(0.1)
+
+
+@pytest.mark.parametrize("backend", ["reference", "cpu"])
+@pytest.mark.parametrize("shape", [(5, 7, 4), (1, 6, 5)])
+def test_a_sample_on_a_staggered_grid_is_the_mean_of_the_faces_around(backend, shape):
+    """``sample_aligned`` (the velocity at the faces and centres its advection reads) equals the
+    general trilinear ``sample`` at the same points to rounding, for every pair of the grid's
+    layouts, at the edges (the edge value extended) and on a one-cell axis."""
+    ops = ops_for(backend)
+    layouts = [faces(shape, a) for a in range(3)] + [cells(shape)]
+    rng = np.random.default_rng(5)
+    dtype = np.float64 if backend == "reference" else np.float32
+    for layout in layouts:
+        field = ops.array(rng.standard_normal(layout.size).astype(dtype))
+        for at in layouts:
+            general = ops.numpy(sample(ops, field, layout, positions(ops, at)))
+            aligned = ops.numpy(sample_aligned(ops, field, layout, at))
+            np.testing.assert_allclose(aligned, general, rtol=0, atol=1e-6)

@@ -101,6 +101,41 @@ def sample(ops, field, layout: Layout, p, with_range: bool = False):
     return out, low, high
 
 
+def sample_aligned(ops, field, layout: Layout, at: Layout):
+    """:func:`sample` of ``field`` at every sample of ``at``, whose samples sit on
+    ``layout``'s or halfway between two of them along each axis (a face component at another
+    component's faces or at the cell centres): the mean of the 1, 2, 4 or 8 values around,
+    indices clamped (the edge value extended, as :func:`sample`). Equal to the trilinear sample
+    up to rounding; it gathers only the values with a weight and computes no weights (at 128³
+    the velocity's samples at the faces cost half as much, at the centres a third)."""
+    ijk = indices(ops, at)
+    spans = [_span(ops, ijk[a], layout.shape[a], at.shape[a], at.offset[a] - layout.offset[a])
+             for a in range(3)]  # fmt: skip
+    values = [ops.gather(field, flat_index(layout, i, j, k))
+              for i in spans[0] for j in spans[1] for k in spans[2]]  # fmt: skip
+    total = values[0]
+    for value in values[1:]:
+        total = total + value
+    return total if len(values) == 1 else total * (1.0 / len(values))
+
+
+def _span(ops, index, n: int, points: int, shift: float) -> list:
+    """The indices along one axis that a point ``shift`` cells from sample ``index`` lies
+    between (one when it sits on a sample), clamped to [0, n − 1] where they could leave it."""
+    if n == 1:
+        return [index * 0]
+    steps: tuple[int, ...] = (0,)
+    if abs(shift) == 0.5:
+        steps = (0, 1) if shift > 0 else (-1, 0)
+    elif shift != 0.0:
+        raise ValueError(f"a shift of {shift} cells is not on or halfway between samples")
+    out = []
+    for step in steps:
+        moved = index + step if step else index
+        out.append(moved if 0 <= step and points - 1 + step <= n - 1 else ops.clip(moved, 0, n - 1))
+    return out
+
+
 def neighbour(ops, layout: Layout, i, j, k, axis: int, step: int):
     """(flat index clamped into the field, inside?) of the sample ``step`` along ``axis``."""
     ijk = [i, j, k]

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from incandescent.simulation.arrays import Array, Ops
 from incandescent.simulation.fields import Field, StaggeredField
 from incandescent.simulation.grid import (
+    Layout,
     cells,
     faces,
     flat_index,
@@ -23,6 +24,7 @@ from incandescent.simulation.grid import (
     neighbour,
     positions,
     sample,
+    sample_aligned,
 )
 
 
@@ -146,6 +148,7 @@ def advect(
     ambient: float | None = None,
     ambient_sides: Sequence[bool] | None = None,
     exact: int | None = None,
+    points_on: Layout | None = None,
 ) -> Field:
     """``q`` carried by ``velocity`` (cells/s) over ``dt`` (s): semi-Lagrangian (Stam 1999:
     q(x − u(x)Δt), trilinear), MacCormack-corrected if ``maccormack`` (Selle et al. 2008: the
@@ -157,10 +160,14 @@ def advect(
     the forward trace inside the domain: where it leaves (gas flowing out of an open side), the
     semi-Lagrangian value stays — else the clamped return sample holds the outflow back — and so
     it does where ambient air flows in. ``exact``: the velocity component whose samples are the
-    points themselves (a face component advecting itself): read there, not interpolated."""
+    points themselves (a face component advecting itself): read there, not interpolated.
+    ``points_on``: the layout whose samples ``points`` are (faces or centres), so the velocity
+    there is the mean of the faces around (``grid.sample_aligned``), not a general trilinear
+    sample."""
     (out,) = advect_together(ops, [q], velocity, dt, maccormack=maccormack, open_sides=open_sides,
                              points=points, carried_by=carried_by, ambients=[ambient],
-                             ambient_sides=ambient_sides, exact=exact)  # fmt: skip
+                             ambient_sides=ambient_sides, exact=exact,
+                             points_on=points_on)  # fmt: skip
     return out
 
 
@@ -177,6 +184,7 @@ def advect_together(
     ambients: Sequence[float | None] | None = None,
     ambient_sides: Sequence[bool] | None = None,
     exact: int | None = None,
+    points_on: Layout | None = None,
 ) -> list[Field]:
     """:func:`advect` of several fields on one layout along the same paths (each with its own
     ambient value): the velocity at the points is sampled once and the fields' trilinear
@@ -184,9 +192,7 @@ def advect_together(
     layout = fields[0].layout
     ambients = [None] * len(fields) if ambients is None else list(ambients)
     points = positions(ops, layout) if points is None else points
-    at = points if carried_by is None else carried_by
-    v = [c.values if a == exact and carried_by is None else sample(ops, c.values, c.layout, at)
-         for a, c in enumerate(velocity)]  # fmt: skip
+    v = _velocity_at(ops, velocity, points, carried_by, exact, points_on)
     ops.evaluate(*v)  # stored: else each kernel reading it gathers it again (24 gathers)
     back = [points[a] - v[a] * dt for a in range(3)]
     sides = open_sides if ambient_sides is None else ambient_sides
@@ -206,6 +212,19 @@ def advect_together(
     out = [_corrected(ops, q, t, ahead, leaving, e) for q, t, e in triples]
     ops.evaluate(*out)  # now: the stored intermediates are freed
     return [q.like(c) for q, c in zip(fields, out, strict=True)]
+
+
+def _velocity_at(ops: Ops, velocity: StaggeredField, points, carried_by, exact, points_on):
+    """The three components at ``carried_by`` (else at ``points``): read where they are the
+    points themselves (``exact``), averaged where ``points`` are ``points_on``'s samples,
+    else trilinear."""
+    if carried_by is not None:
+        return [sample(ops, c.values, c.layout, carried_by) for c in velocity]
+    if points_on is not None:
+        return [c.values if c.layout == points_on else sample_aligned(ops, c.values, c.layout,
+                points_on) for c in velocity]  # fmt: skip
+    return [c.values if a == exact else sample(ops, c.values, c.layout, points)
+            for a, c in enumerate(velocity)]  # fmt: skip
 
 
 def _corrected(ops: Ops, q: Field, traced, ahead, leaving, entering):

@@ -322,7 +322,7 @@ class FireSolver:
         velocity sample, shared indices), each with its inflowing air's value; backend arrays."""
         out = advect_together(self.ops, qs, u, dt, maccormack=self.settings.maccormack,
                               open_sides=self.open_sides, points=self.centres,
-                              ambients=ambients)  # fmt: skip
+                              ambients=ambients, points_on=self.cell)  # fmt: skip
         return [q.values for q in out]
 
     # --- one step --------------------------------------------------------------------------
@@ -457,6 +457,7 @@ class FireSolver:
             ambient=self.wind if axis == 0 else 0.0,
             ambient_sides=tangential,
             exact=axis,
+            points_on=self.face[axis],
         ).values
 
     def _mix(self, u: StaggeredField, temperature, soot, step):
