@@ -145,26 +145,16 @@ class Direct:
     of each axis's 1-D operator and ``inverse`` = 1/(λ_x + λ_y + λ_z) on the eigenvalue grid (0
     where the sum is 0: a box closed on every side, whose constant mode is not determined);
     ``workers``: the host threads its matrix products are split over; ``scratch``: three work
-    grids kept between solves (fresh ones cost a page fault per 4 KiB each solve). With float32
-    bases the transform back from the eigenvalue grid runs in float64 (``wide``: its bases and
-    three float64 grids): its rounding, amplified by A up to 12× on the highest modes, left a
-    residual of 1–3·10⁻⁴ at 128³ (above the default tolerance: a second application every
-    step); in float64 it is 1.5–2·10⁻⁵, the rounding of x to float32 itself."""
+    grids kept between solves (fresh ones cost a page fault per 4 KiB each solve)."""
 
     bases: tuple[np.ndarray, np.ndarray, np.ndarray]
     inverse: np.ndarray
     workers: int = 1
     scratch: tuple[np.ndarray, ...] = field(init=False, repr=False)
-    wide: tuple | None = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         grids = tuple(np.empty(self.inverse.shape, self.inverse.dtype) for _ in range(3))
         object.__setattr__(self, "scratch", grids)
-        wide = None
-        if self.inverse.dtype != np.float64:
-            bases = tuple(q.astype(np.float64) for q in self.bases)
-            wide = (bases, tuple(np.empty(self.inverse.shape) for _ in range(3)))
-        object.__setattr__(self, "wide", wide)
 
 
 def line_operator(n: int, lower_open: bool, upper_open: bool) -> np.ndarray:
@@ -216,14 +206,12 @@ def _split(work: Callable[[slice], None], n: int, workers: int) -> None:
 
 
 def _along_axes(x: np.ndarray, q: tuple, inverse: Direct, out: np.ndarray,
-                weight: np.ndarray | None = None, scratch=None) -> np.ndarray:  # fmt: skip
+                weight: np.ndarray | None = None) -> np.ndarray:  # fmt: skip
     """``out`` = x (nx, ny, nz) multiplied along each axis, Σ qx[i, a] qy[j, b] qz[k, c]
-    x[a, b, c], then by ``weight`` (nx, ny, nz) if given (while each slab is in cache);
-    ``scratch``: two grids of x's dtype (``inverse.scratch``'s by default; ``out`` may be the
-    first: each slab is read from it before it is written)."""
+    x[a, b, c], then by ``weight`` (nx, ny, nz) if given (while each slab is in cache)."""
     qx, qy, qz = q
     nx, ny, nz = x.shape
-    first, middle = inverse.scratch[:2] if scratch is None else scratch
+    first, middle = inverse.scratch[:2]
     flat, first_flat = x.reshape(nx, ny * nz), first.reshape(nx, ny * nz)
 
     def along_x(rows: slice) -> None:
@@ -250,13 +238,7 @@ def apply_direct(ops, inverse: Direct, b):
     spectrum, x = inverse.scratch[2], np.empty(shape, qx.dtype)
     with _blas().limit(limits=1, user_api="blas"):
         _along_axes(values, (qx.T, qy.T, qz.T), inverse, spectrum, inverse.inverse)
-        if inverse.wide is None:
-            _along_axes(spectrum, (qx, qy, qz), inverse, x)
-        else:  # back in float64 (why: ``Direct``)
-            bases, (first, middle, wide) = inverse.wide
-            np.copyto(wide, spectrum)
-            _along_axes(wide, bases, inverse, first, scratch=(first, middle))
-            np.copyto(x, first)
+        _along_axes(spectrum, (qx, qy, qz), inverse, x)
     return ops.array(x.ravel())
 
 
