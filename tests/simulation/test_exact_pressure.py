@@ -109,4 +109,3 @@ def test_the_products_split_over_threads_give_one_threads_result():
     first = pressure.apply_direct(ops, three, c).copy()
     pressure.apply_direct(ops, three, b)
     np.testing.assert_array_equal(pressure.apply_direct(ops, three, c), first)
-

@@ -432,3 +432,36 @@ def test_the_blue_core_is_blue():
     xyz = s.ch_fraction * species_xyz(table, "CH", t) + s.c2_fraction * species_xyz(table, "C2", t)
     x, y = xyz[0] / xyz.sum(), xyz[1] / xyz.sum()
     assert 0.5 < ratio < 2.0 and x < 0.22 and 0.1 < y < 0.3
+
+
+@pytest.mark.parametrize("backend", ["reference", "cpu"])
+def test_the_front_takes_the_fuels_velocity_sampled_on_its_cells_alone(backend):
+    """Nguyen et al. 2002 eq. 3: within PHI_NEAR of the front φ moves with the velocity
+    FUEL_SIDE_CELLS into the fuel along −∇φ, elsewhere with the centre's. ``_front_velocity``
+    samples only the front's cells (compressed) and writes them into the centre velocity: the
+    same field as sampling every cell at its fuel-side point."""
+    from incandescent.simulation import solver as fire
+    from incandescent.simulation.grid import sample
+    from incandescent.simulation.operators import central
+
+    solver = FireSolver(preset("explosion"), 24, backend)
+    state = solver.initial_state()
+    for _ in range(3):
+        state, _ = solver.step(state, 1 / 96)
+    ops, phi, u = solver.ops, state.phi, state.velocity
+    values = ops.numpy(phi.values)
+    near = np.abs(values) <= fire.PHI_NEAR
+    assert 0 < near.mean() < 0.5
+    grad = [ops.numpy(central(ops, phi, a).values) for a in range(3)]
+    length = np.sqrt(sum(g * g for g in grad)) + 1e-12
+    shift = np.where(near, fire.FUEL_SIDE_CELLS, 0.0)
+    points = [ops.numpy(solver.centres[a]) - shift * grad[a] / length for a in range(3)]
+    whole = [ops.numpy(sample(ops, c.values, c.layout, [ops.array(p) for p in points]))
+             for c in u]  # fmt: skip
+    centre = solver._centre_velocity(u)
+    front = [ops.numpy(v) for v in solver._front_velocity(phi, u, centre)]
+    tolerance = 1e-12 if backend == "reference" else 1e-5
+    for got, want in zip(front, whole, strict=True):
+        np.testing.assert_allclose(got, want, rtol=0, atol=tolerance * np.abs(want).max())
+    burnt = phi.like(ops.array(np.full(values.size, fire.PHI_LIMIT)))
+    assert solver._front_velocity(burnt, u, centre) is centre

@@ -195,3 +195,30 @@ def test_a_sample_on_a_staggered_grid_is_the_mean_of_the_faces_around(backend, s
             general = ops.numpy(sample(ops, field, layout, positions(ops, at)))
             aligned = ops.numpy(sample_aligned(ops, field, layout, at))
             np.testing.assert_allclose(aligned, general, rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("backend", ["reference", "cpu"])
+def test_compress_and_scatter_write_a_copy_at_the_true_indices(backend):
+    """``compress`` gives the mask's true indices in order; ``scatter`` writes values there in
+    a copy, leaving the array it copied untouched (Dr.Jit copies a shared variable first)."""
+    ops = ops_for(backend)
+    base = ops.array(np.arange(10.0))
+    near = ops.compress((base > 2.5) & (base < 6.5))
+    assert ops.width(near) == 4
+    np.testing.assert_array_equal(np.asarray(near), [3, 4, 5, 6])
+    out = ops.scatter(base, ops.array([-1.0, -2.0, -3.0, -4.0]), near)
+    np.testing.assert_array_equal(ops.numpy(out), [0, 1, 2, -1, -2, -3, -4, 7, 8, 9])
+    np.testing.assert_array_equal(ops.numpy(base), np.arange(10.0))
+    assert ops.width(ops.compress(base > 100.0)) == 0
+
+
+@pytest.mark.parametrize("backend", ["reference", "cpu"])
+def test_strain_rate_from_stored_centres_is_the_inline_one(backend):
+    """The strain rate from the face means evaluated beforehand (the step's shared centre
+    velocity) equals the one that takes them itself, for a flow with every gradient."""
+    ops = ops_for(backend)
+    velocity = _velocity(ops, SHAPE, lambda a, x, y, z: np.sin(0.3 * (a + 1) * x + 0.2 * y) * z)
+    centres = [sample_aligned(ops, c.values, c.layout, velocity.cells) for c in velocity]
+    inline = ops.numpy(strain_rate(ops, velocity).values)
+    stored = ops.numpy(strain_rate(ops, velocity, centres).values)
+    np.testing.assert_allclose(stored, inline, rtol=1e-6, atol=1e-6 * np.abs(inline).max())

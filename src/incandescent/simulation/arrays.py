@@ -41,6 +41,16 @@ class Ops(Protocol):
 
     def select(self, mask: Array, a: Array | float, b: Array | float) -> Array: ...
 
+    def compress(self, mask: Array) -> Array:
+        """The indices where ``mask`` is True, in order (this synchronises)."""
+        ...
+
+    def scatter(self, target: Array, values: Array, index: Array) -> Array:
+        """A copy of ``target`` with ``values`` at ``index`` (``target`` itself unchanged)."""
+        ...
+
+    def width(self, x: Array) -> int: ...
+
     def floor_int(self, x: Array) -> Array:
         """⌊x⌋ as an integer array."""
         ...
@@ -103,6 +113,17 @@ class NumpyOps:
 
     def select(self, mask: Array, a: Array | float, b: Array | float) -> Array:
         return np.where(mask, a, b)
+
+    def compress(self, mask: Array) -> Array:
+        return np.flatnonzero(mask)
+
+    def scatter(self, target: Array, values: Array, index: Array) -> Array:
+        out = np.array(target, copy=True)
+        out[index] = values
+        return out
+
+    def width(self, x: Array) -> int:
+        return int(np.size(x))
 
     def floor_int(self, x: Array) -> Array:
         return np.floor(x).astype(np.int64)
@@ -170,6 +191,17 @@ class DrJitOps:
 
     def select(self, mask: Array, a: Array | float, b: Array | float) -> Array:
         return self.dr.select(mask, a, b)
+
+    def compress(self, mask: Array) -> Array:
+        return self.m.Int(self.dr.compress(mask))
+
+    def scatter(self, target: Array, values: Array, index: Array) -> Array:
+        out = type(target)(target)  # the same variable: Dr.Jit copies it before writing
+        self.dr.scatter(out, values, self.m.UInt(index))
+        return out
+
+    def width(self, x: Array) -> int:
+        return int(self.dr.width(x))
 
     def floor_int(self, x: Array) -> Array:
         return self.m.Int(self.dr.floor(x))

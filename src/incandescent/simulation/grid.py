@@ -41,10 +41,11 @@ def faces(shape, axis: int) -> Layout:
     return Layout(grown, FACE_OFFSETS[axis])  # type: ignore[arg-type]
 
 
-def indices(ops, layout: Layout):
-    """(i, j, k) integer arrays of every sample of ``layout``, C order (z fastest)."""
+def indices(ops, layout: Layout, flat=None):
+    """(i, j, k) integer arrays of every sample of ``layout``, C order (z fastest), or of the
+    samples whose flat indices are ``flat``."""
     _, ny, nz = layout.shape
-    flat = ops.arange(layout.size)
+    flat = ops.arange(layout.size) if flat is None else flat
     return flat // (ny * nz), (flat // nz) % ny, flat % nz
 
 

@@ -96,17 +96,32 @@ def face_mean(ops: Ops, component: Field, axis: int) -> Field:
 def central(ops: Ops, q: Field, axis: int) -> Field:
     """∂q/∂axis at the cell centres, per cell: (q₊ − q₋)/2 inside, one-sided (q₊ − q) or
     (q − q₋) at the domain's edges."""
-    i, j, k = indices(ops, q.layout)
+    return q.like(central_at(ops, q, axis, indices(ops, q.layout)))
+
+
+def central_at(ops: Ops, q: Field, axis: int, at) -> Array:
+    """:func:`central`'s ∂q/∂axis at the cells ``at`` = (i, j, k) only (an array of theirs)."""
+    i, j, k = at
     up, up_in = neighbour(ops, q.layout, i, j, k, axis, 1)
     down, down_in = neighbour(ops, q.layout, i, j, k, axis, -1)
     span = ops.select(up_in, 1.0, 0.0) + ops.select(down_in, 1.0, 0.0)
-    return q.like((ops.gather(q.values, up) - ops.gather(q.values, down)) / ops.maximum(span, 1.0))
+    return (ops.gather(q.values, up) - ops.gather(q.values, down)) / ops.maximum(span, 1.0)
+
+
+def _velocity_gradient(ops: Ops, velocity: StaggeredField, centres=None) -> list[list[Array]]:
+    """∂u_c/∂a at the cell centres ([c][a]): central differences of the face means, stored
+    first (``centres``, or evaluated here) so that each difference gathers 2 values, not the 4
+    faces around them (at 128³ a strain-rate kernel took 18 ms with them inline)."""
+    if centres is None:
+        centres = [face_mean(ops, component, a).values for a, component in enumerate(velocity)]
+        ops.evaluate(*centres)
+    fields = [Field(c, velocity.cells) for c in centres]
+    return [[central(ops, fields[c], a).values for a in range(3)] for c in range(3)]
 
 
 def vorticity(ops: Ops, velocity: StaggeredField) -> tuple[Field, Field, Field]:
     """ω = ∇ × u at the cell centres (1/s), from the face means and central differences."""
-    centre = [face_mean(ops, component, a) for a, component in enumerate(velocity)]
-    d = [[central(ops, centre[c], a).values for a in range(3)] for c in range(3)]  # ∂u_c/∂a
+    d = _velocity_gradient(ops, velocity)
     layout = velocity.cells
     return (
         Field(d[2][1] - d[1][2], layout),
@@ -149,6 +164,7 @@ def advect(
     ambient_sides: Sequence[bool] | None = None,
     exact: int | None = None,
     points_on: Layout | None = None,
+    velocity_at: Sequence[Array] | None = None,
 ) -> Field:
     """``q`` carried by ``velocity`` (cells/s) over ``dt`` (s): semi-Lagrangian (Stam 1999:
     q(x − u(x)Δt), trilinear), MacCormack-corrected if ``maccormack`` (Selle et al. 2008: the
@@ -163,11 +179,11 @@ def advect(
     points themselves (a face component advecting itself): read there, not interpolated.
     ``points_on``: the layout whose samples ``points`` are (faces or centres), so the velocity
     there is the mean of the faces around (``grid.sample_aligned``), not a general trilinear
-    sample."""
+    sample; ``velocity_at``: the velocity (x, y, z) each point takes, already sampled."""
     (out,) = advect_together(ops, [q], velocity, dt, maccormack=maccormack, open_sides=open_sides,
                              points=points, carried_by=carried_by, ambients=[ambient],
                              ambient_sides=ambient_sides, exact=exact,
-                             points_on=points_on)  # fmt: skip
+                             points_on=points_on, velocity_at=velocity_at)  # fmt: skip
     return out
 
 
@@ -185,6 +201,7 @@ def advect_together(
     ambient_sides: Sequence[bool] | None = None,
     exact: int | None = None,
     points_on: Layout | None = None,
+    velocity_at: Sequence[Array] | None = None,
 ) -> list[Field]:
     """:func:`advect` of several fields on one layout along the same paths (each with its own
     ambient value): the velocity at the points is sampled once and the fields' trilinear
@@ -192,7 +209,10 @@ def advect_together(
     layout = fields[0].layout
     ambients = [None] * len(fields) if ambients is None else list(ambients)
     points = positions(ops, layout) if points is None else points
-    v = _velocity_at(ops, velocity, points, carried_by, exact, points_on)
+    if velocity_at is None:
+        v = _velocity_at(ops, velocity, points, carried_by, exact, points_on)
+    else:
+        v = list(velocity_at)
     ops.evaluate(*v)  # stored: else each kernel reading it gathers it again (24 gathers)
     back = [points[a] - v[a] * dt for a in range(3)]
     sides = open_sides if ambient_sides is None else ambient_sides
@@ -257,12 +277,12 @@ def _where(ops: Ops, mask: Array | None, value: float | None, otherwise: Array) 
     return otherwise if mask is None else ops.select(mask, value, otherwise)
 
 
-def strain_rate(ops: Ops, velocity: StaggeredField) -> Field:
+def strain_rate(ops: Ops, velocity: StaggeredField, centres=None) -> Field:
     """|S| = √(2 S_ij S_ij) at the cell centres (1/s for u in cells/s), S_ij = ½(∂u_i/∂x_j +
     ∂u_j/∂x_i) from the face means and central differences: the resolved strain that sets
-    Smagorinsky's eddy viscosity (``eddy_diffuse``)."""
-    centre = [face_mean(ops, component, a) for a, component in enumerate(velocity)]
-    d = [[central(ops, centre[c], a).values for a in range(3)] for c in range(3)]  # ∂u_c/∂a
+    Smagorinsky's eddy viscosity (``eddy_diffuse``). ``centres``: the face means if already
+    evaluated."""
+    d = _velocity_gradient(ops, velocity, centres)
     total = None
     for c in range(3):
         for a in range(3):
