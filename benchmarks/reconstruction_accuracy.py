@@ -174,6 +174,11 @@ def main() -> None:
                         help="hold voxels with local κ ≤ this × the largest dark")  # fmt: skip
     parser.add_argument("--gauss-newton", type=int, default=Settings.gauss_newton,
                         help="Gauss–Newton steps after L-BFGS-B")  # fmt: skip
+    parser.add_argument("--tv-continuation", default="",
+                        help="TV weights to relax to at the finest level, e.g. 1e-3,3e-4,1e-4 "
+                        "(each case is told its noise: the discrepancy stop)")  # fmt: skip
+    parser.add_argument("--continuation-iterations", type=int, default=0,
+                        help="iterations at each continuation weight (0: --iterations)")
     parser.add_argument("--cases", default="all,few,noisy", help="all, few (4 views), noisy")
     parser.add_argument("--backend", default="cpu", choices=("cpu", "cuda", "reference"))
     parser.add_argument("--out", type=Path)
@@ -189,11 +194,15 @@ def main() -> None:
     options = {"iterations": args.iterations, "levels": args.levels, "tv_weight": args.tv,
                "tv_eps_K": args.tv_eps,
                "power": args.power, "dark_fraction": args.dark,
-               "gauss_newton": args.gauss_newton}  # fmt: skip
+               "gauss_newton": args.gauss_newton,
+               "continuation_iterations": args.continuation_iterations,
+               "tv_continuation": [float(w) for w in args.tv_continuation.split(",")
+                                   if w]}  # fmt: skip
     rows = []
     for name in args.cases.split(","):
         count, noise = plan[name]
-        row = run_case(args.size, args.pixels, count, noise, options, args.backend)
+        told = {**options, "noise": noise}
+        row = run_case(args.size, args.pixels, count, noise, told, args.backend)
         rows.append({"case": name, **row})
         print(json.dumps(rows[-1]), flush=True)
     if args.out:

@@ -4,6 +4,8 @@ says."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -57,8 +59,9 @@ def test_eight_views_recover_the_flame(one_thread):
 @pytest.mark.parametrize(
     ("settings", "back"),
     [(Settings(iterations=4, levels=2, round=2), 4),
-     (Settings(iterations=2, levels=1, gauss_newton=3, gauss_newton_cg=2), 1)],
-    ids=["l-bfgs-b", "gauss-newton"],
+     (Settings(iterations=2, levels=1, gauss_newton=3, gauss_newton_cg=2), 1),
+     (Settings(iterations=2, levels=1, round=1, tv_continuation=(1e-3, 1e-4)), 3)],
+    ids=["l-bfgs-b", "gauss-newton", "tv-continuation"],
 )  # fmt: skip
 def test_a_resumed_run_equals_an_uninterrupted_one(tmp_path, settings, back):
     """Interrupted (Ctrl-C) in its second round (or Gauss–Newton step), resumed from the
@@ -263,3 +266,26 @@ def test_gauss_newton_refines_voxel_temperatures_only():
         Settings(gauss_newton=2, absorption=True)
     with pytest.raises(ValueError, match="expected ≥ 0 steps"):
         Settings(gauss_newton=-1)
+
+
+def test_the_tv_continuation_stops_at_the_views_noise():
+    """Morozov's discrepancy principle: told that its views are noisier than its first fit's
+    data term, the continuation runs no further weight (the same evaluations as without one);
+    told nothing, it runs them, each lowering the prior's weight and the data term with it."""
+    truth = _flame(8)
+    views = _views(truth, count=2, pixels=8, backend="reference")
+    base = Settings(iterations=6, levels=1)
+    plain = reconstruct(views, truth, base, "reference")
+    relaxed = Settings(iterations=6, levels=1, tv_continuation=(3e-4, 3e-5))
+    stopped = reconstruct(views, truth, replace(relaxed, noise=0.5), "reference")
+    assert stopped.losses == plain.losses
+    run = reconstruct(views, truth, relaxed, "reference")
+    assert len(run.losses) > len(plain.losses)
+    assert run.losses[-1] < plain.losses[-1]
+
+
+def test_a_bad_tv_continuation_is_refused():
+    with pytest.raises(ValueError, match="tv_continuation"):
+        Settings(tv_continuation=(1e-3, -1.0))
+    with pytest.raises(ValueError, match="noise"):
+        Settings(noise=1.5)

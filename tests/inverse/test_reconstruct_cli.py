@@ -185,3 +185,22 @@ def test_solve_absorption_writes_the_fitted_absorption(case, one_thread):
     assert not np.allclose(kappa, truth.absorption_per_m)
     both = _run(folder, views, "--solve-absorption", "--axisymmetric", "--overwrite")
     _one_line_error(both, "absorption and axisymmetric cannot be solved together")
+
+
+def test_a_tv_continuation_runs_and_a_bad_one_is_one_line(case, one_thread):
+    """``--tv-continuation`` relaxes the prior at the finest level after ``--iterations``
+    (more evaluations than without); a weight that is not a number, or a negative one, and a
+    noise outside [0, 1) are one line each."""
+    folder, _, views, _ = case
+    common = ("--iterations", "2", "--levels", "1")
+    plain = _run(folder, views, *common)
+    assert plain.exit_code == 0, plain.output
+    relaxed = _run(folder, views, *common, "--tv-continuation", "1e-3,1e-4", "--overwrite")
+    assert relaxed.exit_code == 0, relaxed.output
+    count = [int(re.search(r"in (\d+) evaluations", r.output).group(1)) for r in (plain, relaxed)]
+    assert count[1] > count[0]
+    bad = _run(folder, views, *common, "--tv-continuation", "1e-3,x", "--overwrite")
+    _one_line_error(bad, r"--tv-continuation '1e-3,x': expected comma-separated numbers")
+    _one_line_error(_run(folder, views, *common, "--tv-continuation", "-1", "--overwrite"),
+                    r"tv_continuation \[-1\.0\]")  # fmt: skip
+    _one_line_error(_run(folder, views, *common, "--noise", "2", "--overwrite"), r"noise 2")

@@ -573,6 +573,16 @@ def pyrometry(o: Given) -> None:
     say(f"  wrote {written}")
 
 
+def _weights(text: str) -> tuple[float, ...]:
+    """--tv-continuation's comma-separated weights; a one-line error naming a bad one."""
+    try:
+        return tuple(float(w) for w in text.split(",") if w.strip())
+    except ValueError:
+        raise ValueError(
+            f"--tv-continuation {text!r}: expected comma-separated numbers, e.g. 1e-3,3e-4"
+        ) from None
+
+
 @app.command()
 @command(flags.RECONSTRUCT)
 def reconstruct(o: Given) -> None:
@@ -593,7 +603,9 @@ def reconstruct(o: Given) -> None:
         settings = Settings(iterations=o.iterations, levels=o.levels, tv_weight=o.tv,
                             tv_eps_K=o.tv_eps, axisymmetric=o.axisymmetric,
                             dark_fraction=o.dark_fraction, gauss_newton=o.gauss_newton,
-                            absorption=o.solve_absorption)  # fmt: skip
+                            absorption=o.solve_absorption, noise=o.noise,
+                            continuation_iterations=o.continuation_iterations,
+                            tv_continuation=_weights(o.tv_continuation))  # fmt: skip
         if o.resume and not checkpoint.exists():
             raise ValueError(f"--resume: no checkpoint {checkpoint} to resume from")
         try:

@@ -665,6 +665,13 @@ RECONSTRUCT = (
     Flag("tv", float, "Total-variation weight, relative to the data term.", default=3e-3),
     Flag("tv_eps", float, "The TV's smoothing ε in K per voxel: a smoothness prior for steps "
          "below it, edge-preserving above.", default=100.0, decls=("--tv-eps",)),
+    Flag("tv_continuation", str, "TV weights to relax to at the finest level, one after "
+         "another, --iterations each (e.g. 1e-3,3e-4,1e-4): the views then decide the flame's "
+         "edges. Empty: none.", default="", decls=("--tv-continuation",)),
+    Flag("continuation_iterations", int, "L-BFGS-B iterations at each --tv-continuation "
+         "weight (0: --iterations).", default=0, decls=("--continuation-iterations",)),
+    Flag("noise", float, "The views' relative noise per pixel (σ/value), if known: the TV "
+         "continuation stops once the fit is that close (discrepancy principle).", default=0.0),
     Flag("gauss_newton", int, "Gauss–Newton steps at the finest level after L-BFGS-B (each "
          "60 conjugate-gradient iterations of two renders and an adjoint; 0: none).",
          default=0, decls=("--gauss-newton",)),
