@@ -105,8 +105,9 @@ def test_inverse_gallery_shows_the_gradients(tmp_path):
 
 
 def test_tomography_gallery_writes_its_cases(tmp_path):
-    """The worked examples at a tiny size (12³, 24², 5 iterations a level): four slice
-    pictures (the last with Gauss–Newton steps), the loss curves and the numbers."""
+    """The worked examples at a tiny size (12³, 24², 5 iterations a level): five slice
+    pictures (the last two with Gauss–Newton steps and with the TV continuation), the loss
+    curves and the numbers."""
     script = _load_script("tomography_gallery")
     written = script.main(["--out", str(tmp_path), "--size", "12", "--pixels", "24",
                            "--iterations", "5"])  # fmt: skip
@@ -115,11 +116,13 @@ def test_tomography_gallery_writes_its_cases(tmp_path):
         "ring4.png",
         "noisy3.png",
         "ring12gn.png",
+        "ring12tv.png",
         "losses.png",
         "cases.json",
     ]
     import json
 
     cases = json.loads(written[-1].read_text())
-    assert set(cases) == {"ring12", "ring4", "noisy3", "ring12gn"}
+    assert set(cases) == {"ring12", "ring4", "noisy3", "ring12gn", "ring12tv"}
     assert all(np.isfinite(c["rmse_hot_K"]) for c in cases.values())
+    assert cases["ring12tv"]["evaluations"] > cases["ring12"]["evaluations"]
