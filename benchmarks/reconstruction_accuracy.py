@@ -177,8 +177,12 @@ def main() -> None:
     parser.add_argument("--tv-continuation", default="",
                         help="TV weights to relax to at the finest level, e.g. 1e-3,3e-4,1e-4 "
                         "(each case is told its noise: the discrepancy stop)")  # fmt: skip
-    parser.add_argument("--continuation-iterations", type=int, default=0,
-                        help="iterations at each continuation weight (0: --iterations)")
+    parser.add_argument(
+        "--continuation-iterations",
+        type=int,
+        default=0,
+        help="iterations at each continuation weight (0: --iterations)",
+    )
     parser.add_argument("--cases", default="all,few,noisy", help="all, few (4 views), noisy")
     parser.add_argument("--backend", default="cpu", choices=("cpu", "cuda", "reference"))
     parser.add_argument("--out", type=Path)
