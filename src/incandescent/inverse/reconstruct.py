@@ -28,6 +28,10 @@ Why it converges (what the first version, Adam on kelvin, did not):
 - Voxels without absorption in reach (κ = 0 there and around) cannot be seen: they are held
   at the lower bound and written at ``floor_K``.
 
+TV continuation (``Settings.tv_continuation``): at the finest level the TV weight is then relaxed
+step by step, each weight from the last one's fit, stopped once the data term reaches the
+views' noise² when ``Settings.noise`` is given (Morozov's discrepancy principle).
+
 L-BFGS-B restarts every ``Settings.round`` iterations (its memory is not kept); after each
 round the state (level, iterations done, v, losses) is written to the checkpoint atomically, so
 a run resumed from it repeats the uninterrupted run exactly.
@@ -133,10 +137,10 @@ class Settings:
     dark_fraction: float = 0.0
     #: solve κ too, from the start's κ as the first guess (``absorption``: κ/κ_ref per voxel)
     absorption: bool = False
-    #: TV continuation: after ``iterations`` at the finest level, ``iterations`` more at each of
-    #: these TV weights in turn — the coarse levels and the first round set the flame's shape
-    #: under a strong prior, then the prior is relaxed so that the views decide its edges
-    #: (``docs/inverse.md``: 76 → 50 K at 64³ from 12 views). Empty: none
+    #: TV continuation: after ``iterations`` at the finest level, ``continuation_iterations``
+    #: more at each of these TV weights in turn — the coarse levels and the first round set the
+    #: flame's shape under a strong prior, then the prior is relaxed so that the views decide
+    #: its edges (``docs/inverse.md``: 76 → 44 K at 64³ from 12 views). Empty: none
     tv_continuation: tuple[float, ...] = ()
     #: L-BFGS-B iterations at each continuation weight (0: ``iterations``)
     continuation_iterations: int = 0
@@ -515,9 +519,10 @@ def reconstruct(
 
 
 def _relax(problem: _Problem, state: State, bounds, checkpoint, fingerprint: str) -> None:
-    """The TV continuation (``Settings.tv_continuation``) at the finest level: ``iterations``
-    of L-BFGS-B at each weight in turn, counted on in ``state.done`` (a checkpoint after each
-    round); before each weight the discrepancy stop, if ``noise`` is set."""
+    """The TV continuation (``Settings.tv_continuation``) at the finest level:
+    ``continuation_iterations`` (or ``iterations``) of L-BFGS-B at each weight in turn, counted
+    on in ``state.done`` (a checkpoint after each round); before each weight the discrepancy
+    stop, if ``noise`` is set."""
     settings = problem.settings
     weights = settings.tv_continuation
     for stage, weight in enumerate(weights, start=1):
@@ -547,7 +552,7 @@ def _data_term(problem: _Problem, v: NDArray) -> float:
     weight, progress = problem.tv_weight, problem.progress
     problem.tv_weight, problem.progress = 0.0, None
     try:
-        return problem.voxels(v.ravel())[0]
+        return problem(v.ravel())[0]
     finally:
         problem.tv_weight, problem.progress = weight, progress
         problem.state.losses.pop()
