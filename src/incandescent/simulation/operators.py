@@ -85,12 +85,7 @@ def face_mean(ops: Ops, component: Field, axis: int) -> Field:
     shape = list(component.shape)
     shape[axis] -= 1
     layout = cells(shape)
-    i, j, k = indices(ops, layout)
-    ijk = [i, j, k]
-    below = ops.gather(component.values, flat_index(component.layout, *ijk))
-    ijk[axis] = ijk[axis] + 1
-    above = ops.gather(component.values, flat_index(component.layout, *ijk))
-    return Field(0.5 * (below + above), layout)
+    return Field(sample_aligned(ops, component.values, component.layout, layout), layout)
 
 
 def central(ops: Ops, q: Field, axis: int) -> Field:
@@ -159,30 +154,27 @@ def advect(
     maccormack: bool = True,
     open_sides: Sequence[bool] = (False,) * 6,
     points: Sequence[Array] | None = None,
-    carried_by: Sequence[Array] | None = None,
     ambient: float | None = None,
     ambient_sides: Sequence[bool] | None = None,
-    exact: int | None = None,
     points_on: Layout | None = None,
     velocity_at: Sequence[Array] | None = None,
 ) -> Field:
     """``q`` carried by ``velocity`` (cells/s) over ``dt`` (s): semi-Lagrangian (Stam 1999:
     q(x − u(x)Δt), trilinear), MacCormack-corrected if ``maccormack`` (Selle et al. 2008: the
     forward value plus half the error of tracing it back, clamped to the 8 values it was
-    interpolated from). ``points``: the samples' positions (cells; default: ``q``'s layout's);
-    ``carried_by``: where each takes its velocity from (default: where it is); ``ambient``: the
+    interpolated from). ``points``: the samples' positions (cells; default: ``q``'s layout's,
+    which is then ``points_on``); ``ambient``: the
     value of air that flows in through an open side (x−, x+, y−, y+, z−, z+ in ``open_sides``,
     or only those of ``ambient_sides``; default: the edge value extended). The correction needs
     the forward trace inside the domain: where it leaves (gas flowing out of an open side), the
     semi-Lagrangian value stays — else the clamped return sample holds the outflow back — and so
-    it does where ambient air flows in. ``exact``: the velocity component whose samples are the
-    points themselves (a face component advecting itself): read there, not interpolated.
-    ``points_on``: the layout whose samples ``points`` are (faces or centres), so the velocity
-    there is the mean of the faces around (``grid.sample_aligned``), not a general trilinear
-    sample; ``velocity_at``: the velocity (x, y, z) each point takes, already sampled."""
+    it does where ambient air flows in. ``points_on``: the layout whose samples ``points`` are
+    (faces or centres), so the velocity there is read (the component on that layout) or the
+    mean of the faces around (``grid.sample_aligned``), not a general trilinear sample;
+    ``velocity_at``: the velocity (x, y, z) each point takes, already sampled (e.g. the fuel
+    side's, ``FireSolver._front_velocity``)."""
     (out,) = advect_together(ops, [q], velocity, dt, maccormack=maccormack, open_sides=open_sides,
-                             points=points, carried_by=carried_by, ambients=[ambient],
-                             ambient_sides=ambient_sides, exact=exact,
+                             points=points, ambients=[ambient], ambient_sides=ambient_sides,
                              points_on=points_on, velocity_at=velocity_at)  # fmt: skip
     return out
 
@@ -196,10 +188,8 @@ def advect_together(
     maccormack: bool = True,
     open_sides: Sequence[bool] = (False,) * 6,
     points: Sequence[Array] | None = None,
-    carried_by: Sequence[Array] | None = None,
     ambients: Sequence[float | None] | None = None,
     ambient_sides: Sequence[bool] | None = None,
-    exact: int | None = None,
     points_on: Layout | None = None,
     velocity_at: Sequence[Array] | None = None,
 ) -> list[Field]:
@@ -208,11 +198,9 @@ def advect_together(
     samples share one kernel's indices and weights."""
     layout = fields[0].layout
     ambients = [None] * len(fields) if ambients is None else list(ambients)
-    points = positions(ops, layout) if points is None else points
-    if velocity_at is None:
-        v = _velocity_at(ops, velocity, points, carried_by, exact, points_on)
-    else:
-        v = list(velocity_at)
+    if points is None:
+        points, points_on = positions(ops, layout), layout
+    v = _velocity_at(ops, velocity, points, points_on) if velocity_at is None else list(velocity_at)
     ops.evaluate(*v)  # stored: else each kernel reading it gathers it again (24 gathers)
     back = [points[a] - v[a] * dt for a in range(3)]
     sides = open_sides if ambient_sides is None else ambient_sides
@@ -234,17 +222,13 @@ def advect_together(
     return [q.like(c) for q, c in zip(fields, out, strict=True)]
 
 
-def _velocity_at(ops: Ops, velocity: StaggeredField, points, carried_by, exact, points_on):
-    """The three components at ``carried_by`` (else at ``points``): read where they are the
-    points themselves (``exact``), averaged where ``points`` are ``points_on``'s samples,
-    else trilinear."""
-    if carried_by is not None:
-        return [sample(ops, c.values, c.layout, carried_by) for c in velocity]
-    if points_on is not None:
-        return [c.values if c.layout == points_on else sample_aligned(ops, c.values, c.layout,
-                points_on) for c in velocity]  # fmt: skip
-    return [c.values if a == exact else sample(ops, c.values, c.layout, points)
-            for a, c in enumerate(velocity)]  # fmt: skip
+def _velocity_at(ops: Ops, velocity: StaggeredField, points, points_on: Layout | None):
+    """The three components at ``points``: where they are ``points_on``'s samples, read (the
+    component on that layout) or averaged (``grid.sample_aligned``); else trilinear."""
+    if points_on is None:
+        return [sample(ops, c.values, c.layout, points) for c in velocity]
+    return [c.values if c.layout == points_on else sample_aligned(ops, c.values, c.layout,
+            points_on) for c in velocity]  # fmt: skip
 
 
 def _corrected(ops: Ops, q: Field, traced, ahead, leaving, entering):

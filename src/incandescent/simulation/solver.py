@@ -49,7 +49,6 @@ from incandescent.simulation.grid import (
     indices,
     positions,
     sample,
-    sample_aligned,
 )
 from incandescent.simulation.operators import (
     advect,
@@ -340,7 +339,7 @@ class FireSolver:
     def _centre_velocity(self, u: StaggeredField) -> list:
         """The velocity at the cell centres, each component the mean of its two faces
         (evaluated: the cell scalars' and the front's advection read it)."""
-        v = [sample_aligned(self.ops, c.values, c.layout, self.cell) for c in u]
+        v = [face_mean(self.ops, c, a).values for a, c in enumerate(u)]
         self.ops.evaluate(*v)
         return v
 
@@ -475,7 +474,6 @@ class FireSolver:
             points=self.face_points[axis],
             ambient=self.wind if axis == 0 else 0.0,
             ambient_sides=tangential,
-            exact=axis,
             points_on=self.face[axis],
         ).values
 
