@@ -9,7 +9,8 @@ the time its feed takes to fill the pool's cells if longer (``FILL_TIMES``) — 
 ``--seconds`` that are measured:
 
 - the puffing frequency: the dominant frequency above 0.5 Hz of the luminous volume (gas above
-  1000 K, the diagnostics' flame), and of the luminous region's tip height;
+  1000 K, the diagnostics' flame), of the luminous region's tip height and, for a diffusion
+  flame, of the flame's own volume (gas at or above Z_st, ``puffing_sheet_hz``);
 - the mean flame height: where a layer holds luminous gas half the time (50 % intermittency);
   for a diffusion flame also where a layer holds gas at or above the stoichiometric mixture
   fraction half the time (``height_sheet_m``): fast chemistry burns the fuel at the sheet
@@ -68,7 +69,7 @@ def sample_run(
     settings = pool_fire(diameter_m, heat_kW, changes={"fps": RATE_HZ}, combustion=combustion)
     solver = FireSolver(settings, resolution, backend)
     state, h = solver.initial_state(), solver.h
-    volume, tip, present, centre, sheet = [], [], [], [], []
+    volume, tip, present, centre, sheet, flame = [], [], [], [], [], []
     began = time.perf_counter()
     for _ in range(round(seconds * RATE_HZ)):
         state, _ = advance_frame(solver, state)
@@ -81,7 +82,9 @@ def sample_run(
         centre.append(centreline_K(t))
         if settings.combustion == "mixing":
             z = solver.ops.numpy(state.mixture.values).reshape(solver.shape)
-            sheet.append((z >= settings.stoichiometric_mixture).any(axis=(0, 2)))
+            rich = z >= settings.stoichiometric_mixture
+            sheet.append(rich.any(axis=(0, 2)))
+            flame.append(rich.sum() * h**3)
     return {
         "h": h,
         "shape": solver.shape,
@@ -91,6 +94,7 @@ def sample_run(
         "present": np.array(present),
         "centre": np.array(centre),
         "sheet": np.array(sheet),
+        "flame": np.array(flame),
     }
 
 
@@ -143,6 +147,9 @@ def measure(
         "puffing_expected_hz": puffing_hz(diameter_m),
         "puffing_volume_hz": dominant_hz(run["volume"][keep], RATE_HZ),
         "puffing_tip_hz": dominant_hz(run["tip"][keep], RATE_HZ),
+        "puffing_sheet_hz": (
+            dominant_hz(run["flame"][keep], RATE_HZ) if len(run["flame"]) else None
+        ),
         "height_expected_m": heskestad_height_m(heat_kW, diameter_m),
         "height_m": intermittency_height_m(run["present"][keep], h),
         "height_sheet_m": (
@@ -163,7 +170,7 @@ def measure(
 def table(results: list[dict]) -> str:
     """The results as a Markdown table, each figure beside its correlation."""
     rows = [
-        "| D (m) | Q (kW) | cells | D*/δx | puffing Hz (vol / tip) | Cetegen–Ahmed Hz "
+        "| D (m) | Q (kW) | cells | D*/δx | puffing Hz (vol / tip / flame) | Cetegen–Ahmed Hz "
         "| flame height m, T > 1000 K / Z ≥ Z_st | Heskestad m | plume slope | McCaffrey "
         "| wall s (backend) |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
@@ -178,12 +185,18 @@ def table(results: list[dict]) -> str:
         rows.append(
             f"| {r['D_m']:g} | {r['Q_kW']:g} | {r['resolution']} ({r['cells_across_D']:.0f} "
             f"across D) | {_resolved(r):.1f} | {r['puffing_volume_hz']:.2f} / "
-            f"{r['puffing_tip_hz']:.2f} | "
+            f"{r['puffing_tip_hz']:.2f}{_flame_hz(r)} | "
             f"{r['puffing_expected_hz']:.2f} | {height} | "
             f"{r['height_expected_m']:.2f} | {slope} | −1.67 | {r['wall_s']:.0f} "
             f"({r.get('backend', 'cpu')}) |"
         )
     return "\n".join(rows) + "\n"
+
+
+def _flame_hz(result: dict) -> str:
+    """`` / f``: the puffing of the flame's own volume (Z ≥ Z_st), where it was measured."""
+    flame = result.get("puffing_sheet_hz")
+    return "" if flame is None else f" / {flame:.2f}"
 
 
 def _resolved(result: dict) -> float:

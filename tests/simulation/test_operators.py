@@ -13,6 +13,7 @@ from incandescent.simulation.fields import Field, StaggeredField
 from incandescent.simulation.grid import cells, faces, positions, sample, sample_aligned
 from incandescent.simulation.operators import (
     advect,
+    advect_conservative,
     divergence,
     eddy_diffuse,
     strain_rate,
@@ -122,6 +123,48 @@ def test_a_passive_scalar_in_a_closed_box_keeps_its_mass_within_the_schemes_drif
     assert np.abs(mac).max() < 0.015
     assert np.abs(semi).max() < 0.20
     assert np.abs(semi[-1]) > 10 * np.abs(mac[-1])
+
+
+def _blob_in_a_vortex(ops, shape=(32, 32, 4)):
+    """The vortex of :func:`_mass_drift` and its Gaussian blob (σ = 3 cells, 6.4 off centre)."""
+    u = _vortex(ops, shape, 0.5)
+    x, y, _ = (ops.numpy(p).reshape(shape) for p in positions(ops, cells(shape)))
+    blob = np.exp(-((x - 9.6) ** 2 + (y - 16.0) ** 2) / 18.0)
+    return u, Field(ops.array(blob.ravel()), cells(shape))
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_flux_form_advection_keeps_the_mass_and_the_bounds_exactly(backend):
+    """The blob the semi-Lagrangian step loses 14 % of (above) carried 64 steps round the
+    closed box in flux form (``advect_conservative``): Σq unchanged to rounding (what a face
+    takes from one cell it gives the next), no value below 0 or above the blob's peak (van
+    Leer's limiter), and the blob has moved (its peak's cell changed)."""
+    ops = ops_for(backend)
+    u, q = _blob_in_a_vortex(ops)
+    start, total, peak = ops.numpy(q.values), ops.sum(q.values), ops.max_abs(q.values)
+    for _ in range(64):
+        (q,) = advect_conservative(ops, [q], u, 1.0, ambients=[0.0], courant_cells=1.0)
+    end = ops.numpy(q.values)
+    assert ops.sum(q.values) == pytest.approx(total, rel=1e-5 if backend != "reference" else 1e-12)
+    assert end.min() >= -1e-6 and end.max() <= peak + 1e-6
+    assert np.argmax(end) != np.argmax(start)
+
+
+@pytest.mark.parametrize("backend", ALL_BACKENDS)
+def test_flux_form_advection_moves_a_profile_at_the_flow_s_speed(backend):
+    """A Gaussian (σ = 2.5 cells) in a uniform flow of 0.4 cells/s along x, 20 s: its centroid
+    moves 8 cells (to 0.05 cell; measured 10⁻⁵) and its peak keeps over 95 % of its height
+    (second-order MUSCL: 97.8 %, measured; first-order upwind, the limiter set to 0, keeps
+    77.0 %); air that enters at the x− side carries 0."""
+    ops, shape = ops_for(backend), (40, 4, 4)
+    x = ops.numpy(positions(ops, cells(shape))[0])
+    q = Field(ops.array(np.exp(-((x - 12.0) ** 2) / 12.5)), cells(shape))
+    u = _velocity(ops, shape, lambda a, x, y, z: 0.4 if a == 0 else 0.0)
+    (q,) = advect_conservative(ops, [q], u, 20.0, ambients=[0.0], courant_cells=8.0)
+    end = ops.numpy(q.values)
+    assert (end * x).sum() / end.sum() == pytest.approx(20.0, abs=0.05)
+    assert end.max() > 0.95
+    assert end[x < 2.0].max() < 1e-6
 
 
 @pytest.mark.parametrize("backend", ALL_BACKENDS)

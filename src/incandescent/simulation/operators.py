@@ -11,6 +11,7 @@ Fedkiw, Stam & Jensen 2001 §3), so the projection built from them has no odd–
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 from incandescent.simulation.arrays import Array, Ops
@@ -297,3 +298,87 @@ def eddy_diffuse(ops: Ops, q: Field, diffusivity: Field, dt: Array | float) -> F
             flux = ops.select(inside, flux, 0.0)
             total = flux if total is None else total + flux
     return q.like(q.values + total)
+
+
+#: The largest Σ_a |u_a|Δt (cells) of one forward-Euler step of :func:`advect_conservative`:
+#: with MUSCL faces (the upwind value plus at most its own difference to the next cell) the
+#: update is then a convex combination, so it makes no new extremes (Harten 1983, J. Comput.
+#: Phys. 49:357, the TVD condition for a limited second-order flux, ν ≤ 1/(1 + ψ_max/2)).
+CONSERVATIVE_COURANT = 0.5
+
+
+def advect_conservative(
+    ops: Ops,
+    fields: Sequence[Field],
+    velocity: StaggeredField,
+    dt: float,
+    *,
+    ambients: Sequence[float],
+    courant_cells: float,
+) -> list[Field]:
+    """Cell fields carried in flux form, ∂q/∂t + ∇·(u q) = 0, over ``dt`` (s): each face
+    passes u·q_face, q_face the upwind cell's value plus half its van Leer-limited difference
+    (MUSCL; van Leer 1979, J. Comput. Phys. 32:101), in forward-Euler sub-steps of at most
+    ``CONSERVATIVE_COURANT`` cells (``courant_cells``: the step's Σ_a max|u_a|Δt). What a cell
+    loses its neighbour gains, so Σq changes only by what crosses the domain's sides — exactly,
+    where the semi-Lagrangian step (:func:`advect`) is not conservative: in a 0.5 m, 50 kW pool
+    fire at 32 cells it made 2.3 g/s of fuel for the 1 g/s fed. Gas entering through a side
+    (a wind's, entrainment, a nozzle's jet) carries ``ambients``; solid faces carry nothing
+    (their velocity is 0)."""
+    substeps = max(1, math.ceil(courant_cells / CONSERVATIVE_COURANT))
+    values = [q.values for q in fields]
+    for _ in range(substeps):
+        fluxes = [_muscl_fluxes(ops, values, c, a, ambients) for a, c in enumerate(velocity)]
+        values = _flux_update(ops, values, fluxes, fields[0].layout, dt / substeps)
+        ops.evaluate(*values)
+    return [q.like(v) for q, v in zip(fields, values, strict=True)]
+
+
+def _muscl_fluxes(ops: Ops, values, component: Field, axis: int, ambients) -> list[Array]:
+    """u·q_face on the faces normal to ``axis``, one array per field (cells/s × q)."""
+    layout = component.layout
+    cell_shape = list(layout.shape)
+    cell_shape[axis] -= 1
+    cell_layout = cells(cell_shape)
+    i, j, k = indices(ops, layout)
+    n = cell_shape[axis]
+    u = component.values
+    forward = u > 0.0
+    out = []
+    for q, ambient in zip(values, ambients, strict=True):
+        near, far, back, behind = (
+            _shifted(ops, q, cell_layout, (i, j, k), axis, s, n) for s in (-1, -2, 0, 1)
+        )
+        across = back
+        up = ops.select(forward, near[0], back[0])
+        upup = ops.select(forward, far[0], behind[0])
+        down = ops.select(forward, across[0], near[0])
+        up_in = ops.select(forward, near[1], back[1])
+        face = up + 0.5 * _van_leer(ops, up - upup, down - up)
+        out.append(u * ops.select(up_in, face, ambient))
+    return out
+
+
+def _shifted(ops: Ops, q: Array, layout: Layout, ijk, axis: int, step: int, n: int):
+    """(value, inside?) of the cell ``step`` along ``axis`` from each face's upper cell, the
+    edge cell's value where that lies outside (the limiter then sees no slope)."""
+    moved = list(ijk)
+    moved[axis] = moved[axis] + step
+    inside = (moved[axis] >= 0) & (moved[axis] < n)
+    moved[axis] = ops.clip(moved[axis], 0, n - 1)
+    return ops.gather(q, flat_index(layout, *moved)), inside
+
+
+def _van_leer(ops: Ops, a: Array, b: Array) -> Array:
+    """van Leer's limited difference 2ab/(a + b) where a and b share a sign, else 0."""
+    same = a * b > 0.0
+    return ops.select(same, 2.0 * a * b / ops.select(same, a + b, 1.0), 0.0)
+
+
+def _flux_update(ops: Ops, values, fluxes, layout: Layout, dt: float) -> list[Array]:
+    """q − Δt Σ_a (F above − F below) per cell (unit spacing): the divergence of the fluxes."""
+    out = []
+    for f, q in enumerate(values):
+        flux = StaggeredField.on(layout.shape, [fluxes[a][f] for a in range(3)])
+        out.append(q - dt * divergence(ops, flux).values)
+    return out

@@ -52,6 +52,7 @@ from incandescent.simulation.grid import (
 )
 from incandescent.simulation.operators import (
     advect,
+    advect_conservative,
     advect_together,
     cell_value_at_faces,
     central,
@@ -383,7 +384,7 @@ class FireSolver:
         u, step = state.velocity, ops.scalar(dt)
         velocity = [self._advect_velocity(u, a, step) for a in range(3)]
         centre = self._centre_velocity(u)
-        mixture, soot = self._advect_cells((state.mixture, state.soot), u, step, (0.0, 0.0), centre)
+        mixture, soot = self._carry_mixture(state, u, dt)
         mixture, soot = self._mix(u, mixture, soot, step, centre)
         ops.evaluate(*velocity, mixture, soot)
         mixture, velocity = self._feed(mixture, velocity, state, step)
@@ -400,6 +401,17 @@ class FireSolver:
         fields = {"phi": phi, "temperature": temperature, "soot": soot, "pressure": p}
         fields["mixture"] = mixture
         return self._advanced(state, dt, velocity, fields), replace(report, dt_s=dt)
+
+    def _carry_mixture(self, state: FireState, u: StaggeredField, dt: float) -> list:
+        """Z and soot carried in flux form (``operators.advect_conservative``), so the fuel and
+        soot in the gas change only by what the sides pass, the feed and the soot's sources
+        (tested): carried semi-Lagrangian, the 0.5 m, 50 kW pool at 32 cells let 3.3 g/s of
+        fuel out of its top for the 1 g/s fed — and so released 3.3 × (1 − χ_r)Q of heat."""
+        ops = self.ops
+        courant = sum(ops.max_abs(c.values) for c in u) * dt
+        fields = (state.mixture, state.soot)
+        out = advect_conservative(ops, fields, u, dt, ambients=(0.0, 0.0), courant_cells=courant)
+        return [q.values for q in out]
 
     def _advanced(self, state: FireState, dt: float, velocity, fields: dict) -> FireState:
         """``state`` Δt later: the new face ``velocity`` and cell ``fields`` (name → array)."""
