@@ -2,7 +2,8 @@
 (Heskestad 1983) and the plume's centreline temperature (McCaffrey 1979).
 
 For each pool (D, Q) of ``--pools`` at each ``--resolution``: ``pool_fire(D, Q)`` (methane; a
-diffusion flame, or the premixed equivalent with ``--combustion front``) is run on ``--backend``
+diffusion flame — burning at once, or with ``--reaction mixing_time`` at its sub-grid mixing
+rate — or the premixed equivalent with ``--combustion front``) is run on ``--backend``
 (cpu; cuda on a GPU, where ``--jobs`` runs the pools side by side in their own processes) at 24
 samples per second, first for a warmup that is dropped — ``--warmup`` seconds, or three times
 the time its feed takes to fill the pool's cells if longer (``FILL_TIMES``) — then for
@@ -63,10 +64,12 @@ def sample_run(
     seconds: float,
     backend: str = "cpu",
     combustion: str = "mixing",
+    reaction: str = "fast",
 ) -> dict:
     """Per-sample series of one pool fire: luminous volume, tip height, layer presence and the
     centreline temperature (NumPy arrays), with the solver's cell size and wall time."""
-    settings = pool_fire(diameter_m, heat_kW, changes={"fps": RATE_HZ}, combustion=combustion)
+    changes = {"fps": RATE_HZ, "reaction": reaction}
+    settings = pool_fire(diameter_m, heat_kW, changes=changes, combustion=combustion)
     solver = FireSolver(settings, resolution, backend)
     state, h = solver.initial_state(), solver.h
     volume, tip, present, centre, sheet, flame = [], [], [], [], [], []
@@ -122,11 +125,14 @@ def measure(
     warmup: float,
     backend: str = "cpu",
     combustion: str = "mixing",
+    reaction: str = "fast",
 ):
     """The figures of one pool fire against the correlations (see the module docstring)."""
     fill = fill_s(diameter_m, heat_kW, resolution, combustion)
     warmup = max(warmup, FILL_TIMES * fill)
-    run = sample_run(diameter_m, heat_kW, resolution, warmup + seconds, backend, combustion)
+    run = sample_run(
+        diameter_m, heat_kW, resolution, warmup + seconds, backend, combustion, reaction
+    )
     keep = slice(round(warmup * RATE_HZ), None)
     h, ny = run["h"], run["shape"][1]
     z = (np.arange(ny) + 0.5) * h
@@ -138,6 +144,7 @@ def measure(
         "resolution": resolution,
         "backend": backend,
         "combustion": combustion,
+        "reaction": reaction,
         "warmup_s": warmup,
         "measured_s": seconds,
         "fill_s": fill,
@@ -234,7 +241,9 @@ def run_pools(pools: list[tuple[float, ...]], args: argparse.Namespace) -> list[
     """``measure`` of every pool, ``args.jobs`` at a time (each in its own spawned process, as
     Dr.Jit's CUDA context is not fork-safe), the JSON rewritten as each one ends (so a run
     stopped early keeps the pools it finished), in the order of ``pools``."""
-    common = (args.resolution, args.seconds, args.warmup, args.backend, args.combustion)
+    common = (
+        args.resolution, args.seconds, args.warmup, args.backend, args.combustion, args.reaction
+    )  # fmt: skip
     context = multiprocessing.get_context("spawn")
     results: list[dict] = []
     with ProcessPoolExecutor(max_workers=max(args.jobs, 1), mp_context=context) as pool:
@@ -257,6 +266,9 @@ def main() -> None:
     parser.add_argument("--backend", default="cpu", help="cpu or cuda")
     parser.add_argument(
         "--combustion", default="mixing", choices=("front", "mixing"), help="pool_fire's model"
+    )
+    parser.add_argument(
+        "--reaction", default="fast", choices=("fast", "mixing_time"), help="a diffusion flame's"
     )
     parser.add_argument("--jobs", type=int, default=1, help="pools run at once (own processes)")
     parser.add_argument("--plot", action="store_true")

@@ -72,12 +72,13 @@ def test_the_flame_sheet_lies_where_the_mixture_is_stoichiometric():
     assert int(np.argmax(zone)) == 7
 
 
-def test_the_jit_backends_burn_as_the_float64_reference(jit_backend):
+@pytest.mark.parametrize("reaction", ["fast", "mixing_time"])
+def test_the_jit_backends_burn_as_the_float64_reference(jit_backend, reaction):
     """Eight steps of the pool at 24 cells from a rich blob of fuel (Z = 0.3) over it: every
     field as the reference's within 1e-5."""
     states = {}
     for backend in ("reference", jit_backend):
-        solver = _pool(24, backend, pressure_tolerance=1e-6)
+        solver = _pool(24, backend, pressure_tolerance=1e-6, reaction=reaction)
         x, y, z = (solver.ops.numpy(p) for p in solver.centres)
         blob = 0.3 * np.exp(-((x - 12) ** 2 + (y - 4) ** 2 + (z - 12) ** 2) / 8.0)
         state = replace(solver.initial_state(), mixture=solver.cell_field(solver.ops.array(blob)))
@@ -86,6 +87,60 @@ def test_the_jit_backends_burn_as_the_float64_reference(jit_backend):
         states[backend] = (solver, state)
     names = ("temperature", "soot", "mixture")
     assert_states_close(states["reference"], states[jit_backend], names, nonzero=True)
+
+
+def _cells_of(solver: FireSolver, mixture: np.ndarray, burnt_K: np.ndarray):
+    """(Z, T) as the backend's arrays, tiled over the solver's cells."""
+    n = solver.cell.size
+    return tuple(solver.ops.array(np.resize(v, n)) for v in (mixture, burnt_K))
+
+
+def test_mixing_limited_burning_is_fast_chemistry_when_mixing_is_instant():
+    """``reaction = "mixing_time"``: unburnt gas (T = T_air) over a Δt a million times τ_mix
+    burns to Burke & Schumann's flame temperature at every Z, lean, stoichiometric and rich —
+    the fast-chemistry limit, to rounding (float64)."""
+    solver = _pool(reaction="mixing_time")
+    z = np.array([0.0, 0.01, 0.03, solver.settings.stoichiometric_mixture, 0.2, 0.6, 1.0])
+    mixture, cold = _cells_of(solver, z, np.full(z.size, solver.settings.t_air_K))
+    strain = solver.ops.full(solver.cell.size, 1.0)
+    tau = float(np.max(solver.ops.numpy(solver.mixing_time_s(strain))))
+    burnt = solver.ops.numpy(solver._burn(mixture, cold, strain, 1e6 * tau))
+    expected = solver.ops.numpy(solver.flame_temperature(mixture))
+    np.testing.assert_allclose(burnt, expected, rtol=1e-12)
+
+
+def test_mixing_limited_burning_is_a_partially_stirred_reactor():
+    """Over Δt = τ_mix ln 2 half the fuel that can burn burns (1 − e^(−Δt/τ_mix) = ½): lean gas
+    at Z = 0.03 from cold reaches half its flame temperature's excess, rich gas at Z = 0.3 half
+    of what its air allows; and gas already burnt as far as it can stays (T = T(Z))."""
+    solver = _pool(reaction="mixing_time")
+    s = solver.settings
+    z = np.array([0.03, 0.3])
+    mixture, cold = _cells_of(solver, z, np.full(2, s.t_air_K))
+    strain = solver.ops.full(solver.cell.size, 2.0)
+    tau = solver.ops.numpy(solver.mixing_time_s(strain))[0]
+    half = solver.ops.numpy(solver._burn(mixture, cold, strain, tau * np.log(2.0)))[:2]
+    full = solver.ops.numpy(solver.flame_temperature(mixture))[:2]
+    np.testing.assert_allclose(half - s.t_air_K, 0.5 * (full - s.t_air_K), rtol=1e-12)
+    _, done = _cells_of(solver, z, full)
+    again = solver.ops.numpy(solver._burn(mixture, done, strain, 10.0 * tau))[:2]
+    np.testing.assert_allclose(again, full, rtol=1e-12)
+
+
+def test_the_mixing_time_is_fds_s():
+    """τ_mix = min(τ_u, τ_g) written out (McDermott, McGrattan & Floyd 2011): τ_g = √(2Δ/g) for
+    the 0.5 m pool's cells at 16 cells (Δ = 0.125 m: 0.160 s); τ_u = C_u Δ/√(⅔ k_sgs), k_sgs =
+    (ν_t/(C_ν Δ))², ν_t = (C_s Δ)²|S| (C_u 0.4, C_ν 0.1, C_s 0.2): 1.2247/|S| whatever Δ — at
+    |S| = 20/s, 0.0612 s; at 2/s the free fall's 0.160 s is the shorter."""
+    solver = _pool(reaction="mixing_time")
+    h = solver.h
+    assert h == pytest.approx(0.125)
+    strain = solver.ops.array(np.resize([20.0, 2.0], solver.cell.size))
+    tau = solver.ops.numpy(solver.mixing_time_s(strain))[:2]
+    c_u, c_nu, c_s = 0.4, 0.1, 0.2
+    turbulence = c_u * h / np.sqrt(2 / 3 * ((c_s * h) ** 2 * 20.0 / (c_nu * h)) ** 2)
+    np.testing.assert_allclose(tau, [turbulence, np.sqrt(2 * h / 9.80665)], rtol=1e-12)
+    assert tau[0] == pytest.approx(0.0612, abs=1e-4) and tau[1] == pytest.approx(0.160, abs=1e-3)
 
 
 def test_a_diffusion_flame_lifts_and_heats_the_gas_above_the_pool():
@@ -181,14 +236,15 @@ def _fuel_kg(solver: FireSolver, state) -> float:
     return float(z.sum()) * air_density_kg_m3(solver.settings.t_air_K) * solver.h**3
 
 
-def test_the_fuel_fed_leaves_or_stays_so_the_fire_releases_q():
+@pytest.mark.parametrize("reaction", ["fast", "mixing_time"])
+def test_the_fuel_fed_leaves_or_stays_so_the_fire_releases_q(reaction):
     """Z is carried in flux form: over 1 s of the 0.5 m, 50 kW pool at 24 cells (after 2 s, the
     plume through the top), the fuel fed equals what left through the sides (each step's
     outflow at the velocity that carries the next) plus what the domain gained, to 1 % (measured
     0.994: the outflow is read at each step's start, the flux form's own sub-steps move). Every
     kilogram of it leaves lean, so the heat the gas carries away is (1 − χ_r)ΔH_c per kg fed:
     (1 − χ_r)Q. Carried semi-Lagrangian, 3.3 g/s left the 32-cell pool for the 1 g/s fed."""
-    solver = _pool(24, "cpu")
+    solver = _pool(24, "cpu", reaction=reaction)
     state, dt = solver.initial_state(), 1 / 96
     for _ in range(2 * 96):
         state, _ = solver.step(state, dt)

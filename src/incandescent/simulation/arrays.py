@@ -88,6 +88,8 @@ class Ops(Protocol):
 
     def cos(self, x: Array) -> Array: ...
 
+    def exp(self, x: Array) -> Array: ...
+
 
 class NumpyOps:
     """The float64 reference."""
@@ -163,6 +165,9 @@ class NumpyOps:
 
     def cos(self, x: Array) -> Array:
         return np.cos(x)
+
+    def exp(self, x: Array) -> Array:
+        return np.exp(x)
 
 
 class DrJitOps:
@@ -246,6 +251,9 @@ class DrJitOps:
 
     def cos(self, x: Array) -> Array:
         return self.dr.cos(x)
+
+    def exp(self, x: Array) -> Array:
+        return self.dr.exp(x)
 
 
 def ops_for(backend: str) -> Ops:

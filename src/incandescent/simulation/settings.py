@@ -102,6 +102,12 @@ class FireSettings(_Model):
         description="'front': Nguyen's premixed front (the level set); 'mixing': a diffusion "
         "flame, the fuel burning where it has mixed with air (mixture fraction, fast chemistry)",
     )
+    reaction: Literal["fast", "mixing_time"] = Field(
+        default="fast",
+        description="combustion = 'mixing': 'fast', fuel burns at once where it meets air "
+        "(Burke–Schumann); 'mixing_time', at min(Y_F, Y_air/s)/τ_mix, τ_mix the cell's "
+        "sub-grid mixing time (FDS 6's eddy-dissipation model)",
+    )
     density: Literal["boussinesq", "ideal_gas"] = Field(
         default="boussinesq",
         description="the gas's inertia: 'boussinesq', the air's everywhere; 'ideal_gas', its "

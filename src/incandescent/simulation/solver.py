@@ -357,7 +357,7 @@ class FireSolver:
         )
         phi = self._advect(state.phi, self.centres, u, step, ambient=PHI_LIMIT,
                            velocity_at=self._front_velocity(state.phi, u, centre))  # fmt: skip
-        temperature, soot = self._mix(u, temperature, soot, step, centre)
+        temperature, soot = self._mix(u, temperature, soot, step=step, centre=centre)
         ops.evaluate(*velocity, phi, temperature, soot)
         phi, velocity = self._sources(phi, velocity, state)
         speed = s.flame_speed_m_s / self.h
@@ -384,11 +384,33 @@ class FireSolver:
         u, step = state.velocity, ops.scalar(dt)
         velocity = [self._advect_velocity(u, a, step) for a in range(3)]
         centre = self._centre_velocity(u)
+        if self.settings.reaction == "mixing_time":
+            return self._step_mixing_time(state, dt, velocity, centre)
         mixture, soot = self._carry_mixture(state, u, dt)
-        mixture, soot = self._mix(u, mixture, soot, step, centre)
+        mixture, soot = self._mix(u, mixture, soot, step=step, centre=centre)
         ops.evaluate(*velocity, mixture, soot)
         mixture, velocity = self._feed(mixture, velocity, state, step)
         temperature = self.flame_temperature(mixture)
+        return self._burnt(state, dt, velocity, mixture, temperature, soot)
+
+    def _step_mixing_time(self, state: FireState, dt: float, velocity, centre):
+        """The diffusion flame's step with ``reaction = "mixing_time"``: the temperature carried
+        and mixed with Z and soot (it holds the burnt fuel, ``_burn``), then the fuel burnt over
+        Δt at its mixing-limited rate."""
+        ops, u, step = self.ops, state.velocity, self.ops.scalar(dt)
+        carried = self._carry_mixture(state, u, dt, with_heat=True)
+        strain = strain_rate(ops, u, centre)
+        mixture, soot, heat = self._mix(u, *carried, step=step, centre=centre, strain=strain)
+        ops.evaluate(*velocity, mixture, soot, heat)
+        mixture, velocity = self._feed(mixture, velocity, state, step)
+        temperature = self._burn(mixture, heat, strain.values, dt)
+        return self._burnt(state, dt, velocity, mixture, temperature, soot)
+
+    def _burnt(self, state: FireState, dt: float, velocity, mixture, temperature, soot):
+        """The diffusion flame's step from its new temperature on: forces, projection, soot,
+        the sheet's distance."""
+        ops = self.ops
+        step = ops.scalar(dt)
         inertia = self.inertia(temperature)
         velocity = self._forces(velocity, temperature, soot, step, inertia)
         velocity = self._entrainment(velocity, step)
@@ -402,16 +424,50 @@ class FireSolver:
         fields["mixture"] = mixture
         return self._advanced(state, dt, velocity, fields), replace(report, dt_s=dt)
 
-    def _carry_mixture(self, state: FireState, u: StaggeredField, dt: float) -> list:
+    def _carry_mixture(self, state: FireState, u: StaggeredField, dt: float, with_heat=False):
         """Z and soot carried in flux form (``operators.advect_conservative``), so the fuel and
         soot in the gas change only by what the sides pass, the feed and the soot's sources
         (tested): carried semi-Lagrangian, the 0.5 m, 50 kW pool at 32 cells let 3.3 g/s of
         fuel out of its top for the 1 g/s fed — and so released 3.3 × (1 − χ_r)Q of heat."""
-        ops = self.ops
+        ops, t_air = self.ops, self.settings.t_air_K
         courant = sum(ops.max_abs(c.values) for c in u) * dt
-        fields = (state.mixture, state.soot)
-        out = advect_conservative(ops, fields, u, dt, ambients=(0.0, 0.0), courant_cells=courant)
+        fields = (state.mixture, state.soot, state.temperature)[: 3 if with_heat else 2]
+        ambients = (0.0, 0.0, t_air)[: len(fields)]
+        out = advect_conservative(ops, fields, u, dt, ambients=ambients, courant_cells=courant)
         return [q.values for q in out]
+
+    def _burn(self, mixture, temperature, strain, dt: float):
+        """The temperature (K) after Δt of mixing-limited burning (``reaction =
+        "mixing_time"``). The gas's burnt fuel b (kg per kg of gas) is its heat: T = T_air +
+        k·b with k = (1 − χ_r)(T_ad − T_air)/Z_st, the fast-chemistry state relation's slope
+        (``flame_temperature``: b = min(Z, (1 − Z)/s) there). Unburnt fuel Y_F = Z − b and
+        unburnt air Y_A = 1 − Z − s·b burn as a partially stirred reactor (McGrattan et al.,
+        FDS Technical Reference Guide, 6th ed., NIST SP 1018-1, §5.1: eddy dissipation):
+        b += min(Y_F, Y_A/s)(1 − exp(−Δt/τ_mix)), with ``mixing_time_s``'s τ_mix. As τ_mix → 0
+        this is ``flame_temperature`` exactly (tested)."""
+        s, ops = self.settings, self.ops
+        z_st, t_air = s.stoichiometric_mixture, s.t_air_K
+        air_per_fuel = (1.0 - z_st) / z_st
+        k = (1.0 - s.radiant_fraction) * (s.t_max_K - t_air) / z_st
+        burnt = ops.maximum((temperature - t_air) / k, 0.0)
+        fuel = ops.maximum(mixture - burnt, 0.0)
+        air = ops.maximum(1.0 - mixture - air_per_fuel * burnt, 0.0)
+        share = 1.0 - ops.exp(-dt / self.mixing_time_s(strain))
+        return t_air + k * (burnt + ops.minimum(fuel, air / air_per_fuel) * share)
+
+    def mixing_time_s(self, strain):
+        """τ_mix (s) per cell: min(τ_u, τ_g) (McDermott, McGrattan & Floyd 2011, Fire Safety
+        Science 10:809; FDS 6's default, its molecular τ_d = Δ²/D_F ≈ 10 s at these cells left
+        out): τ_g = √(2Δ/g), a parcel's free fall across the cell, and τ_u = C_u Δ/√(⅔k_sgs),
+        C_u = 0.4, with Deardorff's k_sgs = (ν_t/(C_ν Δ))², C_ν = 0.1, from this solver's
+        Smagorinsky ν_t = (C_s Δ)²|S|: τ_u = C_u C_ν/(√⅔ C_s² |S|). ``strain``: |S| (1/s;
+        the strain rate in cells/s per cell)."""
+        s, ops = self.settings, self.ops
+        fall = math.sqrt(2.0 * self.h / max(s.gravity_m_s2, 1e-30))
+        if s.smagorinsky <= 0.0:
+            return ops.full(self.cell.size, fall)
+        turbulence = 0.4 * 0.1 / (math.sqrt(2.0 / 3.0) * s.smagorinsky**2)
+        return ops.minimum(turbulence / ops.maximum(strain, 1e-30), fall)
 
     def _advanced(self, state: FireState, dt: float, velocity, fields: dict) -> FireState:
         """``state`` Δt later: the new face ``velocity`` and cell ``fields`` (name → array)."""
@@ -489,24 +545,23 @@ class FireSolver:
             points_on=self.face[axis],
         ).values
 
-    def _mix(self, u: StaggeredField, temperature, soot, step, centre=None):
+    def _mix(self, u: StaggeredField, *fields, step, centre=None, strain=None):
         """Sub-grid turbulent mixing of heat and soot: ∂q/∂t = ∇·(D_t ∇q) with Smagorinsky's
         eddy viscosity ν_t = (C_s h)²|S| (Smagorinsky 1963, Mon. Weather Rev. 91:99) and
         D_t = ν_t/Pr_t — the closure of FDS's LES (McGrattan et al., FDS Technical Reference
         Guide, C_s = 0.2, Pr_t = Sc_t = 0.5). In cell units h = 1. Without it the hot products
         are diluted only by the eddies the grid resolves; at 64 cells across a pool fire the
         sub-grid term changes little (the centreline slope −0.22 with it, −0.23 without:
-        ``docs/simulation.md``). ``centre``: u at the cell centres, if already evaluated."""
+        ``docs/simulation.md``). ``centre``: u at the cell centres, if already evaluated;
+        ``strain``: |S| there, if already computed. Returns the ``fields`` mixed, in order."""
         s = self.settings
         if s.smagorinsky <= 0.0:
-            return temperature, soot
-        strain = strain_rate(self.ops, u, centre)
+            return list(fields)
+        strain = strain_rate(self.ops, u, centre) if strain is None else strain
         diffusivity = strain.like(strain.values * (s.smagorinsky**2 / s.turbulent_prandtl))
         self.ops.evaluate(diffusivity.values)
-        return (
-            eddy_diffuse(self.ops, self.cell_field(q), diffusivity, step).values
-            for q in (temperature, soot)
-        )
+        mixed = (eddy_diffuse(self.ops, self.cell_field(q), diffusivity, step) for q in fields)
+        return [q.values for q in mixed]
 
     def _entrainment(self, velocity, step):
         """Air drawn in through an open side starts from rest: between the far field (p = 0,
