@@ -191,6 +191,8 @@ def test_soot_forms_on_the_rich_side_only():
          "combustion must be 'front' or 'mixing'; got 'premixed'"),
         (lambda: pool_fire(0.5, 50.0, changes={"combustion": "fast"}),
          "combustion must be 'front' or 'mixing'; got 'fast'"),
+        (lambda: preset("campfire", reaction="mixing_time"),
+         "reaction: 'mixing_time' burns a diffusion flame's fuel, which combustion = 'front'"),
     ],
 )  # fmt: skip
 def test_a_flame_without_its_fuel_is_refused_in_one_line(make, message):

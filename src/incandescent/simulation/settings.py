@@ -256,6 +256,12 @@ def _check_fuel_flows(settings: FireSettings) -> None:
                 "= 'front' (the premixed front burns at flame_speed_m_s); set combustion = "
                 "'mixing' or fuel_kg_s = 0"
             )
+    if settings.combustion == "front" and settings.reaction != "fast":
+        raise ValueError(
+            f"reaction: {settings.reaction!r} burns a diffusion flame's fuel, which combustion "
+            "= 'front' does not have (its front burns at flame_speed_m_s); set combustion = "
+            "'mixing' or reaction = 'fast'"
+        )
 
 
 def _check_below_sound(settings: FireSettings) -> None:
