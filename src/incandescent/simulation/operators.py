@@ -346,14 +346,14 @@ def _muscl_fluxes(ops: Ops, values, component: Field, axis: int, ambients) -> li
     forward = u > 0.0
     out = []
     for q, ambient in zip(values, ambients, strict=True):
-        near, far, back, behind = (
+        # the cells below the face (near, far) and above it (next, beyond)
+        near, far, next_, beyond = (
             _shifted(ops, q, cell_layout, (i, j, k), axis, s, n) for s in (-1, -2, 0, 1)
         )
-        across = back
-        up = ops.select(forward, near[0], back[0])
-        upup = ops.select(forward, far[0], behind[0])
-        down = ops.select(forward, across[0], near[0])
-        up_in = ops.select(forward, near[1], back[1])
+        up = ops.select(forward, near[0], next_[0])
+        upup = ops.select(forward, far[0], beyond[0])
+        down = ops.select(forward, next_[0], near[0])
+        up_in = ops.select(forward, near[1], next_[1])
         face = up + 0.5 * _van_leer(ops, up - upup, down - up)
         out.append(u * ops.select(up_in, face, ambient))
     return out
