@@ -65,10 +65,11 @@ def sample_run(
     backend: str = "cpu",
     combustion: str = "mixing",
     reaction: str = "fast",
+    expansion: bool = False,
 ) -> dict:
     """Per-sample series of one pool fire: luminous volume, tip height, layer presence and the
     centreline temperature (NumPy arrays), with the solver's cell size and wall time."""
-    changes = {"fps": RATE_HZ, "reaction": reaction}
+    changes = {"fps": RATE_HZ, "reaction": reaction, "expansion": expansion}
     settings = pool_fire(diameter_m, heat_kW, changes=changes, combustion=combustion)
     solver = FireSolver(settings, resolution, backend)
     state, h = solver.initial_state(), solver.h
@@ -126,13 +127,15 @@ def measure(
     backend: str = "cpu",
     combustion: str = "mixing",
     reaction: str = "fast",
+    expansion: bool = False,
 ):
     """The figures of one pool fire against the correlations (see the module docstring)."""
     fill = fill_s(diameter_m, heat_kW, resolution, combustion)
     warmup = max(warmup, FILL_TIMES * fill)
     run = sample_run(
-        diameter_m, heat_kW, resolution, warmup + seconds, backend, combustion, reaction
-    )
+        diameter_m, heat_kW, resolution, warmup + seconds, backend, combustion, reaction,
+        expansion,
+    )  # fmt: skip
     keep = slice(round(warmup * RATE_HZ), None)
     h, ny = run["h"], run["shape"][1]
     z = (np.arange(ny) + 0.5) * h
@@ -145,6 +148,7 @@ def measure(
         "backend": backend,
         "combustion": combustion,
         "reaction": reaction,
+        "expansion": expansion,
         "warmup_s": warmup,
         "measured_s": seconds,
         "fill_s": fill,
@@ -242,7 +246,8 @@ def run_pools(pools: list[tuple[float, ...]], args: argparse.Namespace) -> list[
     Dr.Jit's CUDA context is not fork-safe), the JSON rewritten as each one ends (so a run
     stopped early keeps the pools it finished), in the order of ``pools``."""
     common = (
-        args.resolution, args.seconds, args.warmup, args.backend, args.combustion, args.reaction
+        args.resolution, args.seconds, args.warmup, args.backend, args.combustion, args.reaction,
+        args.expansion,
     )  # fmt: skip
     context = multiprocessing.get_context("spawn")
     results: list[dict] = []
@@ -269,6 +274,9 @@ def main() -> None:
     )
     parser.add_argument(
         "--reaction", default="fast", choices=("fast", "mixing_time"), help="a diffusion flame's"
+    )
+    parser.add_argument(
+        "--expansion", action="store_true", help="a fast diffusion flame's low-Mach expansion"
     )
     parser.add_argument("--jobs", type=int, default=1, help="pools run at once (own processes)")
     parser.add_argument("--plot", action="store_true")

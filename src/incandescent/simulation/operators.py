@@ -287,6 +287,17 @@ def eddy_diffuse(ops: Ops, q: Field, diffusivity: Field, dt: Array | float) -> F
     bound; where the strain is so high that it binds, one step mixes less than D asks): each
     value becomes a convex combination of itself and its neighbours, so mixing never makes new
     extremes."""
+    return q.like(q.values + eddy_exchange(ops, q, diffusivity, dt))
+
+
+def eddy_exchange(
+    ops: Ops, q: Field, diffusivity: Field, dt: Array | float, weight: Array | None = None
+) -> Array:
+    """What each cell gains in one explicit step of ∂(wq)/∂t = ∇·(w D ∇q) (``eddy_diffuse``'s
+    step with a weight w, e.g. the density for a mass fraction q: the gain is then in w's
+    units): each face passes w_f·D_f·Δt·(q_other − q), w_f the smaller of its two cells' w, so
+    a cell's q moves by a convex combination of its neighbours' (w_f/w ≤ 1) and what one cell
+    gives its neighbour gains. ``weight`` None: w = 1."""
     i, j, k = indices(ops, q.layout)
     rate = ops.minimum(diffusivity.values * dt, STABLE_DIFFUSION)
     total = None
@@ -295,9 +306,11 @@ def eddy_diffuse(ops: Ops, q: Field, diffusivity: Field, dt: Array | float) -> F
             index, inside = neighbour(ops, q.layout, i, j, k, axis, step)
             other = ops.minimum(ops.gather(rate, index), STABLE_DIFFUSION)
             flux = 0.5 * (rate + other) * (ops.gather(q.values, index) - q.values)
+            if weight is not None:
+                flux = flux * ops.minimum(weight, ops.gather(weight, index))
             flux = ops.select(inside, flux, 0.0)
             total = flux if total is None else total + flux
-    return q.like(q.values + total)
+    return total
 
 
 #: The largest Σ_a |u_a|Δt (cells) of one forward-Euler step of :func:`advect_conservative`:

@@ -108,6 +108,11 @@ class FireSettings(_Model):
         "(Burke–Schumann); 'mixing_time', at min(Y_F, Y_air/s)/τ_mix, τ_mix the cell's "
         "sub-grid mixing time (FDS 6's eddy-dissipation model)",
     )
+    expansion: bool = Field(
+        default=False,
+        description="combustion = 'mixing', reaction = 'fast': the heat's expansion, the "
+        "low-Mach constraint ∇·u = −(1/ρ) Dρ/Dt with the fuel carried as ρZ (kg/m³)",
+    )
     density: Literal["boussinesq", "ideal_gas"] = Field(
         default="boussinesq",
         description="the gas's inertia: 'boussinesq', the air's everywhere; 'ideal_gas', its "
@@ -261,6 +266,13 @@ def _check_fuel_flows(settings: FireSettings) -> None:
             f"reaction: {settings.reaction!r} burns a diffusion flame's fuel, which combustion "
             "= 'front' does not have (its front burns at flame_speed_m_s); set combustion = "
             "'mixing' or reaction = 'fast'"
+        )
+
+    if settings.expansion and (settings.combustion, settings.reaction) != ("mixing", "fast"):
+        raise ValueError(
+            f"expansion: the low-Mach expansion is built for combustion = 'mixing' with reaction "
+            f"= 'fast'; got combustion = {settings.combustion!r}, reaction = "
+            f"{settings.reaction!r} (the front expands by density_ratio)"
         )
 
 
