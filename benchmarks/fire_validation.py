@@ -65,11 +65,13 @@ def sample_run(
     backend: str = "cpu",
     combustion: str = "mixing",
     reaction: str = "fast",
-    expansion: bool = False,
+    expansion: bool | None = None,
 ) -> dict:
     """Per-sample series of one pool fire: luminous volume, tip height, layer presence and the
     centreline temperature (NumPy arrays), with the solver's cell size and wall time."""
-    changes = {"fps": RATE_HZ, "reaction": reaction, "expansion": expansion}
+    changes = {"fps": RATE_HZ, "reaction": reaction}
+    if expansion is not None:  # else pool_fire's choice
+        changes["expansion"] = expansion
     settings = pool_fire(diameter_m, heat_kW, changes=changes, combustion=combustion)
     solver = FireSolver(settings, resolution, backend)
     state, h = solver.initial_state(), solver.h
@@ -91,6 +93,7 @@ def sample_run(
             flame.append(rich.sum() * h**3)
     return {
         "h": h,
+        "expansion": settings.expansion,
         "shape": solver.shape,
         "wall_s": time.perf_counter() - began,
         "volume": np.array(volume),
@@ -127,7 +130,7 @@ def measure(
     backend: str = "cpu",
     combustion: str = "mixing",
     reaction: str = "fast",
-    expansion: bool = False,
+    expansion: bool | None = None,
 ):
     """The figures of one pool fire against the correlations (see the module docstring)."""
     fill = fill_s(diameter_m, heat_kW, resolution, combustion)
@@ -148,7 +151,7 @@ def measure(
         "backend": backend,
         "combustion": combustion,
         "reaction": reaction,
-        "expansion": expansion,
+        "expansion": run["expansion"],
         "warmup_s": warmup,
         "measured_s": seconds,
         "fill_s": fill,
@@ -276,7 +279,10 @@ def main() -> None:
         "--reaction", default="fast", choices=("fast", "mixing_time"), help="a diffusion flame's"
     )
     parser.add_argument(
-        "--expansion", action="store_true", help="a fast diffusion flame's low-Mach expansion"
+        "--expansion",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="a fast diffusion flame's low-Mach expansion (default: pool_fire's, on)",
     )
     parser.add_argument("--jobs", type=int, default=1, help="pools run at once (own processes)")
     parser.add_argument("--plot", action="store_true")

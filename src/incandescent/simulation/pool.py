@@ -101,8 +101,10 @@ def pool_fire(
     FireSettings keys over these (from ``source``, a file or flag; validated as a preset's).
     ``combustion`` (or the key of that name in ``changes``): "mixing", a diffusion flame fed
     the fuel alone at ṁ_f = Q/ΔH_c, its gas with the ideal gas's inertia
-    (:func:`_diffusion_flame`); "front", the premixed equivalent burning at a front, with the
-    air's inertia everywhere (Boussinesq), as before issue 28's diffusion flame."""
+    (:func:`_diffusion_flame`), and with fast chemistry (``reaction = "fast"``) the low-Mach
+    expansion of its burning gas (``expansion``); "front", the premixed equivalent burning at
+    a front, with the air's inertia everywhere (Boussinesq), as before issue 28's diffusion
+    flame."""
     changes = dict(changes or {})
     combustion = changes.pop("combustion", combustion)  # a settings file may choose it too
     if combustion not in ("front", "mixing"):
@@ -116,6 +118,8 @@ def pool_fire(
     burn = _diffusion_flame if combustion == "mixing" else _premixed_equivalent
     keys = {"domain_m": pool_domain_m(diameter_m, heat_release_kW), "t_max_K": f.adiabatic_K}
     keys |= burn(diameter_m, heat_release_kW, f, t_air)
+    if combustion == "mixing":  # the low-Mach expansion is built for fast chemistry alone
+        keys["expansion"] = changes.get("reaction", "fast") == "fast"
     where = f"pool fire D={diameter_m:g} m, Q={heat_release_kW:g} kW"
     return from_changes("campfire", keys | changes, f"{where}{', ' + source if source else ''}")
 
