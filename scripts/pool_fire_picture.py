@@ -1,12 +1,12 @@
-"""Render a pool fire burnt both ways side by side: ``docs/pool-diffusion.png``.
+"""Render a pool fire burnt three ways side by side: ``docs/pool-diffusion.png``.
 
     python scripts/pool_fire_picture.py [--resolution 64] [--frames 312]
 
 A 0.5 m, 50 kW methane pool (``pool_fire``) simulated on the cpu backend (seed 0) as the
-premixed equivalent (``combustion = "front"``, the air's inertia everywhere) and as a diffusion
-flame (``"mixing"`` with the ideal gas's inertia, the default), each one's last frame rendered
-as ``fire_gallery.py`` renders the presets (same camera rule and display; one exposure per
-panel).
+premixed equivalent (``combustion = "front"``, the air's inertia everywhere), as a diffusion
+flame without the low-Mach expansion (``"mixing"``, ``expansion = false``) and as the default
+diffusion flame (the ideal gas's inertia and its expansion), each one's last frame rendered as
+``fire_gallery.py`` renders the presets (same camera rule and display; one exposure per panel).
 """
 
 from __future__ import annotations
@@ -24,8 +24,12 @@ OUT = Path(__file__).resolve().parents[1] / "docs/pool-diffusion.png"
 SIZE = (192, 384)  # width, height: the pool's 1.5 × 2 m domain, and its camera's margin
 
 
-def panel(combustion: str, resolution: int, frames: int) -> np.ndarray:
-    settings = pool_fire(0.5, 50.0, combustion=combustion)
+#: The panels, left to right: pool_fire's combustion and changes.
+PANELS = (("front", {}), ("mixing", {"expansion": False}), ("mixing", {}))
+
+
+def panel(combustion: str, changes: dict, resolution: int, frames: int) -> np.ndarray:
+    settings = pool_fire(0.5, 50.0, combustion=combustion, changes=changes)
     return last_frame(settings, resolution, frames, SIZE)
 
 
@@ -36,7 +40,7 @@ def main() -> None:
         "--frames", type=int, default=312, help="at 24 frames a second: 13 s, three fill times"
     )
     a = parser.parse_args()
-    panels = [panel(combustion, a.resolution, a.frames) for combustion in ("front", "mixing")]
+    panels = [panel(*p, a.resolution, a.frames) for p in PANELS]
     Image.fromarray(np.concatenate(panels, axis=1)).save(OUT)
     print(f"wrote {OUT} (Heskestad: {heskestad_height_m(50.0, 0.5):.2f} m)")
 

@@ -110,8 +110,9 @@ class FireSettings(_Model):
     )
     expansion: bool = Field(
         default=False,
-        description="combustion = 'mixing', reaction = 'fast': the heat's expansion, the "
-        "low-Mach constraint ∇·u = −(1/ρ) Dρ/Dt with the fuel carried as ρZ (kg/m³)",
+        description="combustion = 'mixing', reaction = 'fast' (pool_fire's default): the "
+        "heat's expansion, the low-Mach constraint ∇·u = −(1/ρ) Dρ/Dt, the density and the "
+        "fuel ρZ carried",
     )
     density: Literal["boussinesq", "ideal_gas"] = Field(
         default="boussinesq",
