@@ -282,7 +282,7 @@ def test_the_fuel_fed_leaves_or_stays_so_the_fire_releases_q(variant):
     0.994: the outflow is read at each step's start, the flux form's own sub-steps move). Every
     kilogram of it leaves lean, so the heat the gas carries away is (1 − χ_r)ΔH_c per kg fed:
     (1 − χ_r)Q. Carried semi-Lagrangian, 3.3 g/s left the 32-cell pool for the 1 g/s fed.
-    With ``expansion`` the fuel is carried as ρZ, its own mass per volume."""
+    With ``expansion`` the fuel is carried as ρZ, its own mass per volume (measured 0.9992)."""
     solver = _pool(24, "cpu", **VARIANTS[variant])
     state, dt = solver.initial_state(), 1 / 96
     for _ in range(2 * 96):
@@ -308,8 +308,9 @@ def test_with_expansion_the_gas_keeps_its_mass(expansion, bound):
     """The continuity equation, ∂ρ/∂t + ∇·(ρu) = ṁ_f: over 1 s of the 0.5 m, 50 kW pool at 24
     cells (after 2 s), the gas's mass in the domain (ρ = ρ_air T_air/T) changes by the fuel fed
     plus the air drawn in through the sides less the gas that left them, within ``bound`` of
-    the mass heating would have driven out (Σ (ρ_air − ρ)h³ at the end). Without the expansion
-    (∇·u = 0) heated gas loses mass in place: the miss is most of that mass."""
+    the mass heating would have driven out (Σ (ρ_air − ρ)h³ at the end). Measured: 0.07 g of
+    72 g (0.001; 48 g of air drawn in net). Without the expansion (∇·u = 0) heated gas loses
+    mass in place: 85 g of 112 g (0.76) missing."""
     solver = _pool(24, "cpu", expansion=expansion)
     state, dt = solver.initial_state(), 1 / 96
     for _ in range(2 * 96):
