@@ -249,7 +249,8 @@ def _check_sources_inside(settings: FireSettings) -> None:
 
 def _check_fuel_flows(settings: FireSettings) -> None:
     """A diffusion flame burns the fuel its sources feed (``fuel_kg_s`` > 0 each); the premixed
-    front ignores a fuel flow, so one set there would be silently unused: refused."""
+    front ignores a fuel flow, so one set there would be silently unused: refused. So are
+    ``mixing_time`` with the front and ``expansion`` with anything but fast chemistry."""
     for index, source in enumerate(settings.sources):
         if settings.combustion == "mixing" and source.fuel_kg_s <= 0.0:
             raise ValueError(
@@ -268,7 +269,6 @@ def _check_fuel_flows(settings: FireSettings) -> None:
             "= 'front' does not have (its front burns at flame_speed_m_s); set combustion = "
             "'mixing' or reaction = 'fast'"
         )
-
     if settings.expansion and (settings.combustion, settings.reaction) != ("mixing", "fast"):
         raise ValueError(
             f"expansion: the low-Mach expansion is built for combustion = 'mixing' with reaction "
