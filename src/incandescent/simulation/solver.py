@@ -427,11 +427,9 @@ class FireSolver:
         ops, u, step = self.ops, state.velocity, self.ops.scalar(dt)
         density = self.settings.t_air_K / state.temperature.values
         fields = [self.cell_field(state.mixture.values * density), self.cell_field(density)]
-        courant = sum(ops.max_abs(c.values) for c in u) * dt
-        carried = advect_conservative(
-            ops, [*fields, state.soot], u, dt, ambients=(0.0, 1.0, 0.0), courant_cells=courant
+        fuel, density, soot = self._carry_conservative(
+            [*fields, state.soot], (0.0, 1.0, 0.0), u, dt
         )
-        fuel, density, soot = (q.values for q in carried)
         fuel, soot = self._mix_fuel(u, fuel, density, soot, step, centre)
         ops.evaluate(*velocity, fuel, soot, density)
         fed, velocity = self._feed(fuel, velocity, state, step)
@@ -445,12 +443,10 @@ class FireSolver:
     def _mix_fuel(self, u: StaggeredField, fuel, density, soot, step, centre):
         """``_mix`` for the low-Mach step: the fuel μ = ρZ/ρ_air gains ∇·(ρ D_t ∇Z)Δt
         (``operators.eddy_exchange`` weighted by the density r), soot as ``_mix``."""
-        s, ops = self.settings, self.ops
-        if s.smagorinsky <= 0.0:
+        ops = self.ops
+        if self.settings.smagorinsky <= 0.0:
             return fuel, soot
-        strain = strain_rate(ops, u, centre)
-        diffusivity = strain.like(strain.values * (s.smagorinsky**2 / s.turbulent_prandtl))
-        ops.evaluate(diffusivity.values)
+        diffusivity = self._eddy_diffusivity(u, centre)
         mixture = self.cell_field(fuel / density)
         gain = eddy_exchange(ops, mixture, diffusivity, step, weight=density)
         soot = eddy_diffuse(ops, self.cell_field(soot), diffusivity, step).values
@@ -479,11 +475,16 @@ class FireSolver:
         soot in the gas change only by what the sides pass, the feed and the soot's sources
         (tested): carried semi-Lagrangian, the 0.5 m, 50 kW pool at 32 cells let 3.3 g/s of
         fuel out of its top for the 1 g/s fed — and so released 3.3 × (1 − χ_r)Q of heat."""
-        ops, t_air = self.ops, self.settings.t_air_K
-        courant = sum(ops.max_abs(c.values) for c in u) * dt
         fields = (state.mixture, state.soot, state.temperature)[: 3 if with_heat else 2]
-        ambients = (0.0, 0.0, t_air)[: len(fields)]
-        out = advect_conservative(ops, fields, u, dt, ambients=ambients, courant_cells=courant)
+        ambients = (0.0, 0.0, self.settings.t_air_K)[: len(fields)]
+        return self._carry_conservative(fields, ambients, u, dt)
+
+    def _carry_conservative(self, fields, ambients, u: StaggeredField, dt: float) -> list:
+        """The cell ``fields`` carried in flux form over ``dt`` (``advect_conservative``, its
+        sub-steps from the velocity's largest components), ``ambients`` entering through the
+        sides; their values, in order."""
+        courant = sum(self.ops.max_abs(c.values) for c in u) * dt
+        out = advect_conservative(self.ops, fields, u, dt, ambients=ambients, courant_cells=courant)
         return [q.values for q in out]
 
     def _burn(self, mixture, temperature, strain, dt: float):
@@ -604,14 +605,20 @@ class FireSolver:
         sub-grid term changes little (the centreline slope −0.22 with it, −0.23 without:
         ``docs/simulation.md``). ``centre``: u at the cell centres, if already evaluated;
         ``strain``: |S| there, if already computed. Returns the ``fields`` mixed, in order."""
-        s = self.settings
-        if s.smagorinsky <= 0.0:
+        if self.settings.smagorinsky <= 0.0:
             return list(fields)
+        diffusivity = self._eddy_diffusivity(u, centre, strain)
+        mixed = (eddy_diffuse(self.ops, self.cell_field(q), diffusivity, step) for q in fields)
+        return [q.values for q in mixed]
+
+    def _eddy_diffusivity(self, u: StaggeredField, centre=None, strain=None) -> Field:
+        """D_t = (C_s h)²|S|/Pr_t per cell (cells²/s; ``_mix``), evaluated; ``strain``: |S|
+        if already computed."""
+        s = self.settings
         strain = strain_rate(self.ops, u, centre) if strain is None else strain
         diffusivity = strain.like(strain.values * (s.smagorinsky**2 / s.turbulent_prandtl))
         self.ops.evaluate(diffusivity.values)
-        mixed = (eddy_diffuse(self.ops, self.cell_field(q), diffusivity, step) for q in fields)
-        return [q.values for q in mixed]
+        return diffusivity
 
     def _entrainment(self, velocity, step):
         """Air drawn in through an open side starts from rest: between the far field (p = 0,
