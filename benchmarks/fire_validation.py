@@ -19,7 +19,9 @@ the time its feed takes to fill the pool's cells if longer (``FILL_TIMES``) — 
   plume (methane with χ_r = 0.2: down to Z ≈ 0.45 Z_st);
 - the centreline: the time-mean temperature of the 2×2 central columns; its log–log slope above
   the flame, in McCaffrey's plume region (z/Q^(2/5) > 0.2 m/kW^(2/5)) below the top 15 % of the
-  domain (its open outflow), against McCaffrey's −5/3.
+  domain (its open outflow), against McCaffrey's −5/3; and the same of the mean plume's own
+  axis, the hottest point of each layer of the time-mean field (``pool.plume_peak``, with its
+  distance from the centreline), which differs where the mean plume has drifted off it.
 
 Writes ``OUT.json`` (every figure, and the profiles) and ``OUT.md`` (the table); with ``--plot``
 also ``OUT.png`` (spectra and profiles). Usage:
@@ -47,6 +49,7 @@ from incandescent.simulation.pool import (
     heskestad_height_m,
     intermittency_height_m,
     mccaffrey_excess_K,
+    plume_peak,
     pool_fire,
     power_law_slope,
     puffing_hz,
@@ -66,9 +69,11 @@ def sample_run(
     combustion: str = "mixing",
     reaction: str = "fast",
     expansion: bool | None = None,
+    mean_from: int = 0,
 ) -> dict:
     """Per-sample series of one pool fire: luminous volume, tip height, layer presence and the
-    centreline temperature (NumPy arrays), with the solver's cell size and wall time."""
+    centreline temperature (NumPy arrays), the time-mean temperature field from sample
+    ``mean_from`` on, with the solver's cell size and wall time."""
     changes = {"fps": RATE_HZ, "reaction": reaction}
     if expansion is not None:  # else pool_fire's choice
         changes["expansion"] = expansion
@@ -76,8 +81,8 @@ def sample_run(
     solver = FireSolver(settings, resolution, backend)
     state, h = solver.initial_state(), solver.h
     volume, tip, present, centre, sheet, flame = [], [], [], [], [], []
-    began = time.perf_counter()
-    for _ in range(round(seconds * RATE_HZ)):
+    total_K, began = np.zeros(solver.shape), time.perf_counter()
+    for sample in range(round(seconds * RATE_HZ)):
         state, _ = advance_frame(solver, state)
         t = solver.ops.numpy(state.temperature.values).reshape(solver.shape)
         hot = t > HOT_K
@@ -86,6 +91,8 @@ def sample_run(
         tip.append((np.nonzero(layers)[0].max() + 1) * h if layers.any() else 0.0)
         present.append(layers)
         centre.append(centreline_K(t))
+        if sample >= mean_from:
+            total_K += t
         if settings.combustion == "mixing":
             z = solver.ops.numpy(state.mixture.values).reshape(solver.shape)
             rich = z >= settings.stoichiometric_mixture
@@ -100,6 +107,7 @@ def sample_run(
         "tip": np.array(tip),
         "present": np.array(present),
         "centre": np.array(centre),
+        "mean_K": total_K / max(round(seconds * RATE_HZ) - mean_from, 1),
         "sheet": np.array(sheet),
         "flame": np.array(flame),
     }
@@ -137,12 +145,13 @@ def measure(
     warmup = max(warmup, FILL_TIMES * fill)
     run = sample_run(
         diameter_m, heat_kW, resolution, warmup + seconds, backend, combustion, reaction,
-        expansion,
+        expansion, round(warmup * RATE_HZ),
     )  # fmt: skip
     keep = slice(round(warmup * RATE_HZ), None)
     h, ny = run["h"], run["shape"][1]
     z = (np.arange(ny) + 0.5) * h
     excess = run["centre"][keep].mean(axis=0) - 300.0
+    peak_K, offset_m = plume_peak(run["mean_K"], h)
     plume = (z / heat_kW**0.4 > 0.2) & (z < 0.85 * ny * h) & (excess > 0)
     return {
         "D_m": diameter_m,
@@ -170,15 +179,23 @@ def measure(
             intermittency_height_m(run["sheet"][keep], h) if len(run["sheet"]) else None
         ),
         "domain_height_m": ny * h,
-        "plume_slope": power_law_slope(z[plume], excess[plume]) if plume.sum() >= 3 else None,
+        "plume_slope": _slope(z[plume], excess[plume]),
         "plume_points": int(plume.sum()),
+        "peak_slope": _slope(z[plume], peak_K[plume] - 300.0),
         "z_m": z.tolist(),
         "centreline_excess_K": excess.tolist(),
         "mccaffrey_excess_K": mccaffrey_excess_K(z, heat_kW).tolist(),
+        "peak_excess_K": (peak_K - 300.0).tolist(),
+        "peak_offset_m": offset_m.tolist(),
         "volume_m3": run["volume"][keep].tolist(),
         "presence": run["present"][keep].mean(axis=0).tolist(),
         "sheet_presence": run["sheet"][keep].mean(axis=0).tolist() if len(run["sheet"]) else None,
     }
+
+
+def _slope(height_m: np.ndarray, excess_K: np.ndarray) -> float | None:
+    """``power_law_slope`` where three points or more were kept, else None."""
+    return power_law_slope(height_m, excess_K) if len(height_m) >= 3 else None
 
 
 def table(results: list[dict]) -> str:
@@ -191,6 +208,8 @@ def table(results: list[dict]) -> str:
     ]
     for r in results:
         slope = "—" if r["plume_slope"] is None else f"{r['plume_slope']:.2f}"
+        if r.get("peak_slope") is not None:  # measured from the 49th stop on
+            slope += f" (axis {r['peak_slope']:.2f})"
         height = f"{r['height_m']:.2f}"
         if r["height_m"] >= r["domain_height_m"] - 1e-9:
             height = f"≥ {height} (the top)"
@@ -232,6 +251,8 @@ def plot(results: list[dict], path: Path) -> None:
         z = np.array(r["z_m"])
         ax.loglog(z, np.maximum(r["centreline_excess_K"], 1.0), label="simulated")
         ax.loglog(z, r["mccaffrey_excess_K"], "--", label="McCaffrey 1979")
+        if "peak_excess_K" in r:
+            ax.loglog(z, np.maximum(r["peak_excess_K"], 1.0), ":", label="mean plume's axis")
         ax.axvline(r["height_expected_m"], color="grey", lw=0.8)
         for key, colour in (("height_m", "C0"), ("height_sheet_m", "C2")):
             if r.get(key):  # None (no sheet) or 0 (no flame half the time): no line on a log axis

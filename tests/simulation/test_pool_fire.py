@@ -16,6 +16,7 @@ from incandescent.simulation.pool import (
     inflow_m_s,
     intermittency_height_m,
     mccaffrey_excess_K,
+    plume_peak,
     pool_fire,
     power_law_slope,
     puffing_hz,
@@ -120,6 +121,23 @@ def test_the_half_intermittency_height_of_a_flickering_tip():
 def test_the_slope_of_a_power_law():
     z = np.linspace(0.5, 3.0, 20)
     assert power_law_slope(z, 170.0 * z ** (-5 / 3)) == pytest.approx(-5 / 3, abs=1e-9)
+
+
+def test_the_plume_peak_follows_a_plume_off_the_centreline():
+    """A Gaussian plume whose axis lies 0.3 m off the centreline and narrows upward: the peak
+    finds its temperature and its offset where the central columns see only its flank."""
+    cell, (nx, ny, nz) = 0.05, (40, 30, 40)
+    x = (np.arange(nx) + 0.5) * cell - nx * cell / 2
+    z = (np.arange(nz) + 0.5) * cell - nz * cell / 2
+    axis_x, axis_z = 0.3 - cell / 2, -cell / 2  # a cell centre: the peak lands on it exactly
+    width = np.linspace(0.3, 0.1, ny)
+    r2 = (x[:, None, None] - axis_x) ** 2 + (z[None, None, :] - axis_z) ** 2
+    field = 300.0 + 500.0 * np.exp(-r2 / width[None, :, None] ** 2)
+    peak_K, offset_m = plume_peak(field, cell)
+    assert peak_K == pytest.approx(800.0, rel=1e-12)
+    assert offset_m == pytest.approx(np.hypot(axis_x, axis_z), abs=1e-12)
+    centre = field[nx // 2 - 1 : nx // 2 + 1, :, nz // 2 - 1 : nz // 2 + 1].mean(axis=(0, 2))
+    assert (centre < peak_K - 100.0).all()
 
 
 @pytest.mark.parametrize("resolution", [24, 64, 128])

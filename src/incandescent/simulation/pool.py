@@ -271,6 +271,17 @@ def centreline_K(temperature_K: np.ndarray) -> np.ndarray:
     return temperature_K[nx // 2 - 1 : nx // 2 + 1, :, nz // 2 - 1 : nz // 2 + 1].mean(axis=(0, 2))
 
 
+def plume_peak(temperature_K: np.ndarray, cell_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """The hottest point of each layer of an (nx, ny, nz) grid (a time-mean field: the mean
+    plume's axis, wherever it has drifted) and its horizontal distance (m) from the domain's
+    vertical centreline, where ``centreline_K`` looks: (peak temperature K, offset m) per layer."""
+    nx, ny, nz = temperature_K.shape
+    layers = np.moveaxis(temperature_K, 1, 0).reshape(ny, nx * nz)
+    i, k = np.unravel_index(layers.argmax(axis=1), (nx, nz))
+    offset_m = np.hypot(i + 0.5 - nx / 2, k + 0.5 - nz / 2) * cell_m
+    return layers.max(axis=1), offset_m
+
+
 def power_law_slope(height_m: np.ndarray, excess_K: np.ndarray) -> float:
     """d ln ΔT / d ln z: the least-squares slope of a centreline profile in log–log."""
     z, dT = np.asarray(height_m, dtype=float), np.asarray(excess_K, dtype=float)
