@@ -32,8 +32,8 @@ def _hot_centroid_m(wind_m_s: float) -> tuple[float, float, float]:
     """(downwind offset of the luminous gas's centroid from the pool's axis, its height, the
     largest speed) over the second of two seconds of a 0.5 m, 50 kW pool fire at 24 cells,
     burning as the premixed equivalent (``combustion = "front"``). The diffusion flame is no
-    use at 24 cells in a wind: its fuel, fed into the pool's 8 cm cells, is swept away before
-    it is rich enough to burn above 1000 K (at 3 m/s no gas passes 1000 K after the first s)."""
+    use at 24 cells: its gas above 1000 K stays in the pool's first layer of 8 cm cells (its
+    centroid 4–9 cm up), and in a wind of 1 or 3 m/s moves one cell downwind either way."""
     settings = pool_fire(0.5, 50.0, changes={"wind_m_s": wind_m_s}, combustion="front")
     solver = FireSolver(settings, 24, "cpu")
     state, offsets, heights, fastest = solver.initial_state(), [], [], 0.0
