@@ -252,7 +252,9 @@ def plot(results: list[dict], path: Path) -> None:
         ax.loglog(z, np.maximum(r["centreline_excess_K"], 1.0), label="simulated")
         ax.loglog(z, r["mccaffrey_excess_K"], "--", label="McCaffrey 1979")
         if "peak_excess_K" in r:
-            ax.loglog(z, np.maximum(r["peak_excess_K"], 1.0), ":", label="mean plume's axis")
+            ax.loglog(
+                z, np.maximum(r["peak_excess_K"], 1.0), "-.", color="C3", label="mean plume's axis"
+            )
         ax.axvline(r["height_expected_m"], color="grey", lw=0.8)
         for key, colour in (("height_m", "C0"), ("height_sheet_m", "C2")):
             if r.get(key):  # None (no sheet) or 0 (no flame half the time): no line on a log axis
