@@ -23,10 +23,13 @@ the time its feed takes to fill the pool's cells if longer (``FILL_TIMES``) — 
   axis, the hottest point of each layer of the time-mean field (``pool.plume_peak``, with its
   distance from the centreline), which differs where the mean plume has drifted off it.
 
-Writes ``OUT.json`` (every figure, and the profiles) and ``OUT.md`` (the table); with ``--plot``
+Writes ``OUT.json`` (every figure, and the profiles) and ``OUT.md`` (the table, and the time-mean
+centreline's — and axis's — ratio to McCaffrey's excess in each of his three regions, the
+continuous flame, the intermittent flame and the plume: ``pool.mccaffrey_ratios``); with ``--plot``
 also ``OUT.png`` (spectra and profiles). Usage:
 ``python benchmarks/fire_validation.py OUT [--resolution 64] [--seconds 9] [--warmup 3]
-[--pools 0.2:10,0.2:20,0.5:50,0.5:150,1.0:200,1.0:600] [--backend cpu] [--jobs 1] [--plot]``.
+[--pools 0.2:10,0.2:20,0.5:50,0.5:150,1.0:200,1.0:600] [--backend cpu] [--jobs 1] [--plot]
+[--state-relation burke_schumann|equilibrium]``.
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ from incandescent.simulation.pool import (
     heskestad_height_m,
     intermittency_height_m,
     mccaffrey_excess_K,
+    mccaffrey_ratios,
     plume_peak,
     pool_fire,
     power_law_slope,
@@ -70,17 +74,20 @@ def sample_run(
     reaction: str = "fast",
     expansion: bool | None = None,
     mean_from: int = 0,
+    state_relation: str = "burke_schumann",
 ) -> dict:
-    """Per-sample series of one pool fire: luminous volume, tip height, layer presence and the
-    centreline temperature (NumPy arrays), the time-mean temperature field from sample
-    ``mean_from`` on, with the solver's cell size and wall time."""
+    """Per-sample series of one pool fire: luminous volume, tip height and layer presence
+    (NumPy arrays), the time-mean temperature field from sample ``mean_from`` on, with the
+    solver's cell size and wall time."""
     changes = {"fps": RATE_HZ, "reaction": reaction}
+    if combustion == "mixing":
+        changes["state_relation"] = state_relation
     if expansion is not None:  # else pool_fire's choice
         changes["expansion"] = expansion
     settings = pool_fire(diameter_m, heat_kW, changes=changes, combustion=combustion)
     solver = FireSolver(settings, resolution, backend)
     state, h = solver.initial_state(), solver.h
-    volume, tip, present, centre, sheet, flame = [], [], [], [], [], []
+    volume, tip, present, sheet, flame = [], [], [], [], []
     total_K, began = np.zeros(solver.shape), time.perf_counter()
     for sample in range(round(seconds * RATE_HZ)):
         state, _ = advance_frame(solver, state)
@@ -90,7 +97,6 @@ def sample_run(
         volume.append(hot.sum() * h**3)
         tip.append((np.nonzero(layers)[0].max() + 1) * h if layers.any() else 0.0)
         present.append(layers)
-        centre.append(centreline_K(t))
         if sample >= mean_from:
             total_K += t
         if settings.combustion == "mixing":
@@ -106,7 +112,6 @@ def sample_run(
         "volume": np.array(volume),
         "tip": np.array(tip),
         "present": np.array(present),
-        "centre": np.array(centre),
         "mean_K": total_K / max(round(seconds * RATE_HZ) - mean_from, 1),
         "sheet": np.array(sheet),
         "flame": np.array(flame),
@@ -139,18 +144,19 @@ def measure(
     combustion: str = "mixing",
     reaction: str = "fast",
     expansion: bool | None = None,
+    state_relation: str = "burke_schumann",
 ):
     """The figures of one pool fire against the correlations (see the module docstring)."""
     fill = fill_s(diameter_m, heat_kW, resolution, combustion)
     warmup = max(warmup, FILL_TIMES * fill)
     run = sample_run(
         diameter_m, heat_kW, resolution, warmup + seconds, backend, combustion, reaction,
-        expansion, round(warmup * RATE_HZ),
+        expansion, round(warmup * RATE_HZ), state_relation,
     )  # fmt: skip
     keep = slice(round(warmup * RATE_HZ), None)
     h, ny = run["h"], run["shape"][1]
     z = (np.arange(ny) + 0.5) * h
-    excess = run["centre"][keep].mean(axis=0) - 300.0
+    excess = centreline_K(run["mean_K"]) - 300.0
     peak_K, offset_m = plume_peak(run["mean_K"], h)
     plume = (z / heat_kW**0.4 > 0.2) & (z < 0.85 * ny * h) & (excess > 0)
     return {
@@ -161,6 +167,7 @@ def measure(
         "combustion": combustion,
         "reaction": reaction,
         "expansion": run["expansion"],
+        "state_relation": state_relation if combustion == "mixing" else None,
         "warmup_s": warmup,
         "measured_s": seconds,
         "fill_s": fill,
@@ -226,6 +233,32 @@ def table(results: list[dict]) -> str:
     return "\n".join(rows) + "\n"
 
 
+def regions_table(results: list[dict]) -> str:
+    """The time-mean centreline (and the mean plume's axis, where it was recorded) against
+    McCaffrey's correlation in each of his three regions (``pool.mccaffrey_ratios``), below the
+    top 15 % of the domain, as a Markdown table."""
+    rows = [
+        "| D (m) | Q (kW) | cells | ΔT ÷ McCaffrey's: continuous flame (z/Q^⅖ < 0.08) "
+        "| intermittent (0.08–0.2) | plume (> 0.2) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in results:
+        top = 0.85 * r["domain_height_m"]
+        lines = [mccaffrey_ratios(r["z_m"], r["centreline_excess_K"], r["Q_kW"], top)]
+        if "peak_excess_K" in r:
+            lines.append(mccaffrey_ratios(r["z_m"], r["peak_excess_K"], r["Q_kW"], top))
+        cells = [" (axis ".join(_ratio(line[name]) for line in lines) for name in lines[0]]
+        cells = [c + ")" * ("(axis" in c) for c in cells]
+        rows.append(
+            f"| {r['D_m']:g} | {r['Q_kW']:g} | {r['resolution']} | " + " | ".join(cells) + " |"
+        )
+    return "\n".join(rows) + "\n"
+
+
+def _ratio(value: float | None) -> str:
+    return "—" if value is None else f"{value:.2f}"
+
+
 def _flame_hz(result: dict) -> str:
     """`` / f``: the puffing of the flame's own volume (Z ≥ Z_st), where it was measured."""
     flame = result.get("puffing_sheet_hz")
@@ -273,7 +306,7 @@ def run_pools(pools: list[tuple[float, ...]], args: argparse.Namespace) -> list[
     stopped early keeps the pools it finished), in the order of ``pools``."""
     common = (
         args.resolution, args.seconds, args.warmup, args.backend, args.combustion, args.reaction,
-        args.expansion,
+        args.expansion, args.state_relation,
     )  # fmt: skip
     context = multiprocessing.get_context("spawn")
     results: list[dict] = []
@@ -307,19 +340,25 @@ def main() -> None:
         default=None,
         help="a fast diffusion flame's low-Mach expansion (default: pool_fire's, on)",
     )
+    parser.add_argument(
+        "--state-relation",
+        default="burke_schumann",
+        choices=("burke_schumann", "equilibrium"),
+        help="a fast diffusion flame's T(Z)",
+    )
     parser.add_argument("--jobs", type=int, default=1, help="pools run at once (own processes)")
     parser.add_argument("--plot", action="store_true")
     parser.add_argument("--again", action="store_true", help="remake OUT.md/.png from OUT.json")
     args = parser.parse_args()
     if args.again:
         results = json.loads(args.out.with_suffix(".json").read_text())
-        args.out.with_suffix(".md").write_text(table(results))
+        args.out.with_suffix(".md").write_text(table(results) + "\n" + regions_table(results))
         plot(results, args.out.with_suffix(".png"))
         return
     args.out.parent.mkdir(parents=True, exist_ok=True)
     pools = [tuple(float(v) for v in pool.split(":")) for pool in args.pools.split(",")]
     results = run_pools(pools, args)
-    args.out.with_suffix(".md").write_text(table(results))
+    args.out.with_suffix(".md").write_text(table(results) + "\n" + regions_table(results))
     if args.plot:
         plot(results, args.out.with_suffix(".png"))
 

@@ -4,6 +4,7 @@ reference, refusals, and a resumed run equal to an uninterrupted one."""
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -74,11 +75,13 @@ def test_the_flame_sheet_lies_where_the_mixture_is_stoichiometric():
 
 
 #: The diffusion flame's variants, as ``pool_fire`` changes: fast chemistry with the low-Mach
-#: expansion (the pool's default), without it, and mixing-limited burning (without: refused).
+#: expansion (the pool's default), without it, mixing-limited burning (without: refused), and
+#: fast chemistry with the expansion and the equilibrium state relation.
 VARIANTS = {
     "expansion": {},
     "fast": {"expansion": False},
     "mixing_time": {"reaction": "mixing_time"},
+    "equilibrium": {"state_relation": "equilibrium"},
 }
 
 
@@ -211,10 +214,19 @@ def test_soot_forms_on_the_rich_side_only():
          "expansion: the low-Mach expansion is built for combustion = 'mixing' with reaction"),
         (lambda: pool_fire(0.5, 50.0, changes={"expansion": True, "reaction": "mixing_time"}),
          "expansion: the low-Mach expansion is built for combustion = 'mixing' with reaction"),
+        (lambda: pool_fire(0.5, 50.0, "heptane", changes={"state_relation": "equilibrium"}),
+         "state_relation 'equilibrium' has tables for methane, propane (GRI-Mech 3.0), not"),
+        (lambda: preset("campfire", state_relation="equilibrium"),
+         "state_relation: 'equilibrium' is the fast diffusion flame's T(Z); got combustion"),
+        (lambda: pool_fire(0.5, 50.0, changes={"state_relation": "equilibrium", "t_air_K": 290}),
+         "t_air_K: 290 K, but the equilibrium tables are of fuel and air at 300 K"),
+        (lambda: pool_fire(0.5, 50.0, "propane", changes={
+            "state_relation": "equilibrium", "equilibrium_fuel": "methane"}),
+         "stoichiometric_mixture: 0.0598802, but methane's equilibrium table has Z_st"),
     ],
 )  # fmt: skip
 def test_a_flame_without_its_fuel_is_refused_in_one_line(make, message):
-    with pytest.raises(ValueError, match=message.replace("(", r"\(")) as error:
+    with pytest.raises(ValueError, match=re.escape(message)) as error:
         make()
     assert "\n" not in str(error.value)
 

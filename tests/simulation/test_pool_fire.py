@@ -16,6 +16,7 @@ from incandescent.simulation.pool import (
     inflow_m_s,
     intermittency_height_m,
     mccaffrey_excess_K,
+    mccaffrey_ratios,
     plume_peak,
     pool_fire,
     power_law_slope,
@@ -121,6 +122,23 @@ def test_the_half_intermittency_height_of_a_flickering_tip():
 def test_the_slope_of_a_power_law():
     z = np.linspace(0.5, 3.0, 20)
     assert power_law_slope(z, 170.0 * z ** (-5 / 3)) == pytest.approx(-5 / 3, abs=1e-9)
+
+
+def test_mccaffreys_regions_compare_a_profile_region_by_region():
+    """A profile 1.6× McCaffrey's in his continuous flame, on it in the intermittent flame and
+    half of it in the plume reads 1.6 / 1 / 0.5; heights at or above ``top_m`` and cold ones
+    are left out; a region the profile does not reach reads None."""
+    q = 100.0
+    z = np.linspace(0.01, 0.5, 200) * q**0.4
+    scaled = z / q**0.4
+    factor = np.where(scaled < 0.08, 1.6, np.where(scaled < 0.2, 1.0, 0.5))
+    excess = factor * mccaffrey_excess_K(z, q)
+    top = 0.4 * q**0.4
+    excess[z >= top] = 1e4  # the outflow's layers: left out
+    excess[5] = -3.0  # a cold layer: left out
+    ratios = mccaffrey_ratios(z, excess, q, top_m=top)
+    assert ratios == pytest.approx({"continuous": 1.6, "intermittent": 1.0, "plume": 0.5})
+    assert mccaffrey_ratios(z[scaled < 0.15], excess[scaled < 0.15], q)["plume"] is None
 
 
 def test_the_plume_peak_follows_a_plume_off_the_centreline():

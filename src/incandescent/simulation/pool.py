@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from incandescent.simulation.settings import (
+    EQUILIBRIUM_Z_ST,
     M_AIR_KG_MOL,
     STANDARD_GRAVITY_M_S2,
     FireSettings,
@@ -120,8 +121,21 @@ def pool_fire(
     keys |= burn(diameter_m, heat_release_kW, f, t_air)
     if combustion == "mixing":  # the low-Mach expansion is built for fast chemistry alone
         keys["expansion"] = changes.get("reaction", "fast") == "fast"
+        keys |= _equilibrium_fuel(fuel, changes)
     where = f"pool fire D={diameter_m:g} m, Q={heat_release_kW:g} kW"
     return from_changes("campfire", keys | changes, f"{where}{', ' + source if source else ''}")
+
+
+def _equilibrium_fuel(fuel: str, changes: Mapping[str, Any]) -> dict:
+    """``equilibrium_fuel``: the fuel's own table, where GRI-Mech 3.0 holds the fuel."""
+    if fuel in EQUILIBRIUM_Z_ST:
+        return {"equilibrium_fuel": fuel}
+    if changes.get("state_relation") == "equilibrium":
+        raise ValueError(
+            f"pool fire: state_relation 'equilibrium' has tables for {', '.join(EQUILIBRIUM_Z_ST)}"
+            f" (GRI-Mech 3.0), not {fuel!r}; use state_relation 'burke_schumann'"
+        )
+    return {}
 
 
 def _premixed_equivalent(diameter_m, heat_release_kW, f: Fuel, t_air: float) -> dict:
@@ -206,6 +220,31 @@ def mccaffrey_excess_K(height_m: np.ndarray, heat_release_kW: float, t_air_K: fl
     kappa = np.where(z < 0.08, 6.8, np.where(z < 0.2, 1.9, 1.1))
     eta = np.where(z < 0.08, 0.5, np.where(z < 0.2, 0.0, -1.0 / 3.0))
     return t_air_K / (2.0 * 9.81) * (kappa / 0.9) ** 2 * z ** (2.0 * eta - 1.0)
+
+
+#: McCaffrey's three regions of a fire's centreline, by z/Q^(2/5) (m/kW^(2/5)): the continuous
+#: flame, the intermittent flame and the plume (``mccaffrey_excess_K``'s constants change there).
+MCCAFFREY_REGIONS = {
+    "continuous": (0.0, 0.08),
+    "intermittent": (0.08, 0.2),
+    "plume": (0.2, math.inf),
+}
+
+
+def mccaffrey_ratios(
+    height_m: np.ndarray, excess_K: np.ndarray, heat_release_kW: float, top_m: float = math.inf
+) -> dict[str, float | None]:
+    """A time-mean excess profile ΔT(z) (K) against McCaffrey's, region by region
+    (``MCCAFFREY_REGIONS``): the geometric mean of ΔT / ΔT_McCaffrey over the heights of the
+    region below ``top_m`` where ΔT > 0; None for a region with no such height."""
+    z, dT = np.asarray(height_m, dtype=float), np.asarray(excess_K, dtype=float)
+    scaled = z / heat_release_kW**0.4
+    ratios: dict[str, float | None] = {}
+    for name, (low, high) in MCCAFFREY_REGIONS.items():
+        keep = (scaled >= low) & (scaled < high) & (z < top_m) & (dT > 0)
+        log_ratio = np.log(dT[keep] / mccaffrey_excess_K(z[keep], heat_release_kW))
+        ratios[name] = float(np.exp(log_ratio.mean())) if keep.any() else None
+    return ratios
 
 
 def burning_rate_kg_m2_s(diameter_m: float, heat_release_kW: float, fuel: Fuel) -> float:

@@ -108,6 +108,16 @@ class FireSettings(_Model):
         "(Burke–Schumann); 'mixing_time', at min(Y_F, Y_air/s)/τ_mix, τ_mix the cell's "
         "sub-grid mixing time (FDS 6's eddy-dissipation model)",
     )
+    state_relation: Literal["burke_schumann", "equilibrium"] = Field(
+        default="burke_schumann",
+        description="combustion = 'mixing', reaction = 'fast': the burning gas's T(Z), less the "
+        "radiant fraction: 'burke_schumann', linear in Z each side of Z_st up to t_max_K (FDS "
+        "5's); 'equilibrium', the fuel–air mixture at chemical equilibrium (GRI-Mech 3.0 "
+        "tables, air and fuel at 300 K; equilibrium_fuel's)",
+    )
+    equilibrium_fuel: Literal["methane", "propane"] = Field(
+        default="methane", description="state_relation = 'equilibrium': whose table"
+    )
     expansion: bool = Field(
         default=False,
         description="combustion = 'mixing', reaction = 'fast' (pool_fire's default): the "
@@ -269,11 +279,42 @@ def _check_fuel_flows(settings: FireSettings) -> None:
             "= 'front' does not have (its front burns at flame_speed_m_s); set combustion = "
             "'mixing' or reaction = 'fast'"
         )
+    _check_state_relation(settings)
     if settings.expansion and (settings.combustion, settings.reaction) != ("mixing", "fast"):
         raise ValueError(
             f"expansion: the low-Mach expansion is built for combustion = 'mixing' with reaction "
             f"= 'fast'; got combustion = {settings.combustion!r}, reaction = "
             f"{settings.reaction!r} (the front expands by density_ratio)"
+        )
+
+
+#: The equilibrium tables' air and fuel temperature (K) and their stoichiometric mixture fractions
+#: (``scripts/equilibrium_table.py``).
+EQUILIBRIUM_T_AIR_K = 300.0
+EQUILIBRIUM_Z_ST = {"methane": 0.05519, "propane": 0.06034}
+
+
+def _check_state_relation(settings: FireSettings) -> None:
+    """The equilibrium tables serve a fast diffusion flame of their fuel in air at 300 K."""
+    if settings.state_relation != "equilibrium":
+        return
+    if (settings.combustion, settings.reaction) != ("mixing", "fast"):
+        raise ValueError(
+            "state_relation: 'equilibrium' is the fast diffusion flame's T(Z); got combustion "
+            f"= {settings.combustion!r}, reaction = {settings.reaction!r} (set combustion = "
+            "'mixing', reaction = 'fast', or state_relation = 'burke_schumann')"
+        )
+    if abs(settings.t_air_K - EQUILIBRIUM_T_AIR_K) > 1.0:
+        raise ValueError(
+            f"t_air_K: {settings.t_air_K:g} K, but the equilibrium tables are of fuel and air "
+            f"at {EQUILIBRIUM_T_AIR_K:g} K; set t_air_K = 300 or state_relation = 'burke_schumann'"
+        )
+    z_st = EQUILIBRIUM_Z_ST[settings.equilibrium_fuel]
+    if abs(settings.stoichiometric_mixture / z_st - 1.0) > 0.02:
+        raise ValueError(
+            f"stoichiometric_mixture: {settings.stoichiometric_mixture:g}, but "
+            f"{settings.equilibrium_fuel}'s equilibrium table has Z_st = {z_st:g}; set "
+            "equilibrium_fuel to the fire's fuel, or state_relation = 'burke_schumann'"
         )
 
 

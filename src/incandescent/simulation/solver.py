@@ -66,6 +66,7 @@ from incandescent.simulation.operators import (
     vorticity_confinement,
 )
 from incandescent.simulation.settings import FireSettings, air_density_kg_m3
+from incandescent.simulation.state_relation import equilibrium_table_K, interpolate
 
 #: Half width of the reaction zone and of the smeared δ(φ), cells.
 FRONT_CELLS = 1.5
@@ -185,6 +186,9 @@ class FireSolver:
         self.inflow_sign = [self._inflow_sign(a) for a in range(3)]
         self.sources = [self._source_distance(s) for s in settings.sources]
         self.source_m3 = [float((self.ops.numpy(d) < 0.0).sum()) * self.h**3 for d in self.sources]
+        equilibrium = settings.state_relation == "equilibrium"
+        fuel = settings.equilibrium_fuel
+        self.state_table = self.ops.array(equilibrium_table_K(fuel)) if equilibrium else None
 
     def _exact_inverse(self, solid: np.ndarray, solved_sides: tuple) -> pressure.Direct | None:
         """The obstacle-free box's exact A⁻¹ as the pressure preconditioner, per
@@ -556,8 +560,13 @@ class FireSolver:
         ψ = Z/Z_st on the lean side and (1 − Z)/(1 − Z_st) on the rich side; T_ad = ``t_max_K``.
         On the lean side this is T_air + (1 − χ_r) Z ΔH_c/c_p: the heat of the fuel burnt in the
         cell, since T_ad − T_air = Z_st ΔH_c/c_p. The state relation of FDS 5's mixture-fraction
-        model (McGrattan et al. 2007, FDS 5 Technical Reference Guide, NIST SP 1018-5, §5.1)."""
+        model (McGrattan et al. 2007, FDS 5 Technical Reference Guide, NIST SP 1018-5, §5.1).
+        With ``state_relation = "equilibrium"``, T_air + (1 − χ_r)(T_eq(Z) − T_air) instead, T_eq
+        the fuel–air mixture's at chemical equilibrium (``state_relation``'s tables)."""
         s, ops = self.settings, self.ops
+        if self.state_table is not None:
+            equilibrium = interpolate(ops, self.state_table, mixture)
+            return s.t_air_K + (1.0 - s.radiant_fraction) * (equilibrium - s.t_air_K)
         z_st = s.stoichiometric_mixture
         psi = ops.maximum(ops.minimum(mixture / z_st, (1.0 - mixture) / (1.0 - z_st)), 0.0)
         return s.t_air_K + (1.0 - s.radiant_fraction) * (s.t_max_K - s.t_air_K) * psi
