@@ -8,7 +8,9 @@ with GRI-Mech 3.0, Smith et al. 1999, which holds methane and propane; air O₂ 
 moles, gas phase only). Not run by the tests or at run time: the tables are committed under
 ``src/incandescent/simulation/data/`` and this script says how they were made. Usage (Cantera
 is not a dependency of incandescent): ``pip install cantera`` then
-``python scripts/equilibrium_table.py [OUT_DIR]``.
+``python scripts/equilibrium_table.py [OUT_DIR]``; ``python scripts/equilibrium_table.py --plot
+PNG`` draws methane's committed table against Burke–Schumann's, both as the solver uses them
+(less χ_r = 0.2; no Cantera needed).
 """
 
 from __future__ import annotations
@@ -16,7 +18,6 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import cantera as ct  # type: ignore[import-not-found]
 import numpy as np
 
 FUELS = {"methane": "CH4", "propane": "C3H8"}
@@ -26,6 +27,8 @@ STEPS = 1000
 
 def table(species: str) -> tuple[np.ndarray, np.ndarray, float]:
     """(Z, T_K, Z_st) of one fuel."""
+    import cantera as ct  # type: ignore[import-not-found]
+
     gas = ct.Solution("gri30.yaml")
     gas.TPX = T_AIR_K, ct.one_atm, "O2:1, N2:3.76"
     air = gas.Y.copy()
@@ -42,8 +45,10 @@ def table(species: str) -> tuple[np.ndarray, np.ndarray, float]:
     return z, temperature, float(gas.mixture_fraction(f"{species}:1", "O2:1, N2:3.76"))
 
 
-def main() -> None:
-    out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("src/incandescent/simulation/data")
+def write_tables(out: Path) -> None:
+    """Each fuel's table as ``out/equilibrium_{fuel}.csv``."""
+    import cantera as ct  # type: ignore[import-not-found]
+
     for name, species in FUELS.items():
         z, temperature, z_st = table(species)
         header = (
@@ -55,6 +60,42 @@ def main() -> None:
         )
         rows = "".join(f"{a:.3f},{b:.2f}\n" for a, b in zip(z, temperature, strict=True))
         (out / f"equilibrium_{name}.csv").write_text(header + rows)
+
+
+def plot(path: Path) -> None:
+    """Methane's flame temperature T_air + (1 − χ_r)(T(Z) − T_air) at χ_r = 0.2: equilibrium
+    (the committed table) against Burke–Schumann (linear to T_ad = 2226 K at Z_st = 1/18.2)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from incandescent.simulation.state_relation import equilibrium_table_K
+
+    z = np.linspace(0.0, 1.0, STEPS + 1)
+    z_st, keep = 1.0 / 18.2, 0.8
+    burke_schumann = 1926.0 * np.minimum(z / z_st, (1.0 - z) / (1.0 - z_st))
+    fig, ax = plt.subplots(figsize=(6.0, 3.4))
+    ax.plot(z, T_AIR_K + keep * burke_schumann, label="Burke–Schumann (default)")
+    ax.plot(z, T_AIR_K + keep * (equilibrium_table_K("methane") - T_AIR_K), label="equilibrium")
+    ax.axhline(1000.0, color="grey", lw=0.8, ls=":", label="1000 K")
+    ax.axvline(z_st, color="grey", lw=0.8)
+    ax.set_xscale("log")
+    ax.set_xlim(1e-3, 1.0)
+    ax.set_xlabel("mixture fraction Z (Z_st: grey)")
+    ax.set_ylabel("T (K), χ_r = 0.2")
+    ax.set_title("methane–air: the gas's temperature by its mixture fraction", fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
+def main() -> None:
+    if sys.argv[1:2] == ["--plot"]:
+        plot(Path(sys.argv[2]))
+        return
+    out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("src/incandescent/simulation/data")
+    write_tables(out)
 
 
 if __name__ == "__main__":
