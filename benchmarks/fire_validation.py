@@ -244,19 +244,19 @@ def regions_table(results: list[dict]) -> str:
     ]
     for r in results:
         top = 0.85 * r["domain_height_m"]
-        lines = [mccaffrey_ratios(r["z_m"], r["centreline_excess_K"], r["Q_kW"], top)]
+        centre = mccaffrey_ratios(r["z_m"], r["centreline_excess_K"], r["Q_kW"], top)
+        axis = None  # recorded from the 49th stop on
         if "peak_excess_K" in r:
-            lines.append(mccaffrey_ratios(r["z_m"], r["peak_excess_K"], r["Q_kW"], top))
-        cells = [" (axis ".join(_ratio(line[name]) for line in lines) for name in lines[0]]
-        cells = [c + ")" * ("(axis" in c) for c in cells]
-        rows.append(
-            f"| {r['D_m']:g} | {r['Q_kW']:g} | {r['resolution']} | " + " | ".join(cells) + " |"
-        )
+            axis = mccaffrey_ratios(r["z_m"], r["peak_excess_K"], r["Q_kW"], top)
+        cells = [_region_cell(centre[name], axis and axis[name]) for name in centre]
+        rows.append(f"| {r['D_m']:g} | {r['Q_kW']:g} | {r['resolution']} | {' | '.join(cells)} |")
     return "\n".join(rows) + "\n"
 
 
-def _ratio(value: float | None) -> str:
-    return "—" if value is None else f"{value:.2f}"
+def _region_cell(centre: float | None, axis: float | None) -> str:
+    """``1.27 (axis 1.58)``; the axis left out where it was not recorded; None as —."""
+    text = "—" if centre is None else f"{centre:.2f}"
+    return text if axis is None else f"{text} (axis {axis:.2f})"
 
 
 def _flame_hz(result: dict) -> str:

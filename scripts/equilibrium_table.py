@@ -63,23 +63,25 @@ def write_tables(out: Path) -> None:
 
 
 def plot(path: Path) -> None:
-    """Methane's flame temperature T_air + (1 − χ_r)(T(Z) − T_air) at χ_r = 0.2: equilibrium
-    (the committed table) against Burke–Schumann (linear to T_ad = 2226 K at Z_st = 1/18.2)."""
+    """Methane's flame temperature as the solver computes it (``FireSolver.flame_temperature``
+    of a methane pool fire, χ_r = 0.2): Burke–Schumann against equilibrium (the committed
+    table)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from incandescent.simulation.state_relation import equilibrium_table_K
+    from incandescent.simulation import FireSolver
+    from incandescent.simulation.pool import pool_fire
 
     z = np.linspace(0.0, 1.0, STEPS + 1)
-    z_st, keep = 1.0 / 18.2, 0.8
-    burke_schumann = 1926.0 * np.minimum(z / z_st, (1.0 - z) / (1.0 - z_st))
     fig, ax = plt.subplots(figsize=(6.0, 3.4))
-    ax.plot(z, T_AIR_K + keep * burke_schumann, label="Burke–Schumann (default)")
-    ax.plot(z, T_AIR_K + keep * (equilibrium_table_K("methane") - T_AIR_K), label="equilibrium")
+    for relation, label in (("burke_schumann", "Burke–Schumann (default)"), ("equilibrium", None)):
+        settings = pool_fire(0.5, 50.0, changes={"state_relation": relation})
+        solver = FireSolver(settings, 8, "reference")  # its flame_temperature, in float64
+        ax.plot(z, solver.flame_temperature(z), label=label or relation)
     ax.axhline(1000.0, color="grey", lw=0.8, ls=":", label="1000 K")
-    ax.axvline(z_st, color="grey", lw=0.8)
+    ax.axvline(settings.stoichiometric_mixture, color="grey", lw=0.8)
     ax.set_xscale("log")
     ax.set_xlim(1e-3, 1.0)
     ax.set_xlabel("mixture fraction Z (Z_st: grey)")

@@ -10,17 +10,18 @@ import pytest
 from incandescent.simulation import FireSolver
 from incandescent.simulation.arrays import ops_for
 from incandescent.simulation.pool import FUELS, pool_fire
-from incandescent.simulation.settings import EQUILIBRIUM_Z_ST
 from incandescent.simulation.state_relation import (
+    EQUILIBRIUM_FUELS,
     EQUILIBRIUM_STEPS,
     equilibrium_table_K,
+    equilibrium_z_st,
     interpolate,
 )
 
 Z = np.linspace(0.0, 1.0, EQUILIBRIUM_STEPS + 1)
 
 
-@pytest.mark.parametrize("fuel", sorted(EQUILIBRIUM_Z_ST))
+@pytest.mark.parametrize("fuel", EQUILIBRIUM_FUELS)
 def test_the_tables_peak_at_the_fuel_s_adiabatic_flame_temperature(fuel):
     """Air and fuel at 300 K in the table's ends; the peak within 0.5 % of Turns's adiabatic
     flame temperature (2226 K methane, 2267 K propane; Turns 2012 Table 2.1), just rich of the
@@ -29,11 +30,11 @@ def test_the_tables_peak_at_the_fuel_s_adiabatic_flame_temperature(fuel):
     table = equilibrium_table_K(fuel)
     assert table[0] == pytest.approx(300.0) and table[-1] == pytest.approx(300.0, abs=2.0)
     assert table.max() == pytest.approx(FUELS[fuel].adiabatic_K, rel=0.005)
-    assert 0.0 <= Z[table.argmax()] - EQUILIBRIUM_Z_ST[fuel] <= 0.005
-    assert EQUILIBRIUM_Z_ST[fuel] == pytest.approx(FUELS[fuel].stoichiometric_mixture, rel=0.01)
+    assert 0.0 <= Z[table.argmax()] - equilibrium_z_st(fuel) <= 0.005
+    assert equilibrium_z_st(fuel) == pytest.approx(FUELS[fuel].stoichiometric_mixture, rel=0.01)
 
 
-@pytest.mark.parametrize("fuel", sorted(EQUILIBRIUM_Z_ST))
+@pytest.mark.parametrize("fuel", EQUILIBRIUM_FUELS)
 def test_lean_gas_is_heated_by_its_fuel_over_air_s_heat_capacity(fuel):
     """As Z → 0 the products are almost all air: T − T_air → Z ΔH_c / c_p,air, c_p,air = 1.005
     kJ/(kg·K) at 300 K — within 3 % at Z = 0.002 (≈ 100 K) — and falls below it as the gas
@@ -41,7 +42,7 @@ def test_lean_gas_is_heated_by_its_fuel_over_air_s_heat_capacity(fuel):
     table = equilibrium_table_K(fuel)
     heat = FUELS[fuel].heat_of_combustion_J_kg / 1005.0
     assert table[2] - 300.0 == pytest.approx(0.002 * heat, rel=0.03)
-    half = round(EQUILIBRIUM_Z_ST[fuel] / 2 * EQUILIBRIUM_STEPS)
+    half = round(equilibrium_z_st(fuel) / 2 * EQUILIBRIUM_STEPS)
     assert 0.75 < (table[half] - 300.0) / (Z[half] * heat) < 0.9
 
 

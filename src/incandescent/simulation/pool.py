@@ -25,7 +25,6 @@ from typing import Any
 import numpy as np
 
 from incandescent.simulation.settings import (
-    EQUILIBRIUM_Z_ST,
     M_AIR_KG_MOL,
     STANDARD_GRAVITY_M_S2,
     FireSettings,
@@ -33,6 +32,7 @@ from incandescent.simulation.settings import (
     air_density_kg_m3,
     from_changes,
 )
+from incandescent.simulation.state_relation import EQUILIBRIUM_FUELS
 
 
 @dataclass(frozen=True)
@@ -128,11 +128,11 @@ def pool_fire(
 
 def _equilibrium_fuel(fuel: str, changes: Mapping[str, Any]) -> dict:
     """``equilibrium_fuel``: the fuel's own table, where GRI-Mech 3.0 holds the fuel."""
-    if fuel in EQUILIBRIUM_Z_ST:
+    if fuel in EQUILIBRIUM_FUELS:
         return {"equilibrium_fuel": fuel}
     if changes.get("state_relation") == "equilibrium":
         raise ValueError(
-            f"pool fire: state_relation 'equilibrium' has tables for {', '.join(EQUILIBRIUM_Z_ST)}"
+            f"pool fire: state_relation 'equilibrium' has tables for {', '.join(EQUILIBRIUM_FUELS)}"
             f" (GRI-Mech 3.0), not {fuel!r}; use state_relation 'burke_schumann'"
         )
     return {}

@@ -24,6 +24,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from incandescent.simulation.state_relation import EQUILIBRIUM_T_AIR_K, equilibrium_z_st
 from incandescent.volume.grid import T_CEILING_K
 
 Fraction3 = tuple[float, float, float]
@@ -288,12 +289,6 @@ def _check_fuel_flows(settings: FireSettings) -> None:
         )
 
 
-#: The equilibrium tables' air and fuel temperature (K) and their stoichiometric mixture fractions
-#: (``scripts/equilibrium_table.py``).
-EQUILIBRIUM_T_AIR_K = 300.0
-EQUILIBRIUM_Z_ST = {"methane": 0.05519, "propane": 0.06034}
-
-
 def _check_state_relation(settings: FireSettings) -> None:
     """The equilibrium tables serve a fast diffusion flame of their fuel in air at 300 K."""
     if settings.state_relation != "equilibrium":
@@ -309,7 +304,7 @@ def _check_state_relation(settings: FireSettings) -> None:
             f"t_air_K: {settings.t_air_K:g} K, but the equilibrium tables are of fuel and air "
             f"at {EQUILIBRIUM_T_AIR_K:g} K; set t_air_K = 300 or state_relation = 'burke_schumann'"
         )
-    z_st = EQUILIBRIUM_Z_ST[settings.equilibrium_fuel]
+    z_st = equilibrium_z_st(settings.equilibrium_fuel)
     if abs(settings.stoichiometric_mixture / z_st - 1.0) > 0.02:
         raise ValueError(
             f"stoichiometric_mixture: {settings.stoichiometric_mixture:g}, but "

@@ -13,6 +13,7 @@ side it is up to 18 % hotter, its heat capacity smaller at lower temperatures (1
 
 from __future__ import annotations
 
+import re
 from functools import cache
 from importlib.resources import files
 
@@ -20,13 +21,28 @@ import numpy as np
 
 #: The tables' step in Z: 0, 0.001, …, 1.
 EQUILIBRIUM_STEPS = 1000
+#: The fuels with a table (those GRI-Mech 3.0 holds) and the temperature (K) of their fuel and air.
+EQUILIBRIUM_FUELS = ("methane", "propane")
+EQUILIBRIUM_T_AIR_K = 300.0
+
+
+@cache
+def _table_text(fuel: str) -> str:
+    return files("incandescent.simulation").joinpath(f"data/equilibrium_{fuel}.csv").read_text()
+
+
+def equilibrium_z_st(fuel: str) -> float:
+    """The stoichiometric mixture fraction of ``fuel``'s table, as its header gives it."""
+    found = re.search(r"Z_st = ([0-9.]+)", _table_text(fuel).splitlines()[0])
+    if found is None:
+        raise ValueError(f"equilibrium_{fuel}.csv: its header gives no Z_st")
+    return float(found.group(1))
 
 
 @cache
 def equilibrium_table_K(fuel: str) -> np.ndarray:
     """The equilibrium temperature (K) of ``fuel`` and air at Z = 0, 0.001, …, 1 (read-only)."""
-    text = files("incandescent.simulation").joinpath(f"data/equilibrium_{fuel}.csv").read_text()
-    rows = np.loadtxt(text.splitlines(), delimiter=",", comments="#", skiprows=2)
+    rows = np.loadtxt(_table_text(fuel).splitlines(), delimiter=",", comments="#", skiprows=2)
     if rows.shape != (EQUILIBRIUM_STEPS + 1, 2):
         raise ValueError(f"equilibrium_{fuel}.csv: expected {EQUILIBRIUM_STEPS + 1} rows of Z, T")
     table = rows[:, 1].copy()
